@@ -1,0 +1,212 @@
+//! Type-II Anderson acceleration AA(m) of a fixed-point map `x -> g(x)` (seed 001, eqs. 9-10).
+//!
+//! With `f = g(x) - x`, the last `m` differences `dF`, `dG` of residuals and images give
+//! `gamma = argmin ||f_k - dF gamma||` and the next point `x = g_k - dG gamma`. The small
+//! least-squares problem is solved through its Tikhonov-regularized normal equations, whose
+//! Gram matrix is updated one column at a time. Nothing is allocated after construction.
+
+/// Anderson acceleration state for vectors of a fixed dimension.
+pub struct Anderson {
+    memory: usize,
+    dim: usize,
+    df: Vec<f64>, // memory columns of length dim, ring buffer
+    dg: Vec<f64>,
+    gram: Vec<f64>, // memory x memory, gram[i*memory + j] = <df_i, df_j>
+    len: usize,
+    head: usize, // index of the oldest column when full
+    f_prev: Vec<f64>,
+    g_prev: Vec<f64>,
+    has_prev: bool,
+    rhs: Vec<f64>,
+    sys: Vec<f64>,
+    gamma: Vec<f64>,
+}
+
+impl Anderson {
+    /// AA(`memory`) for vectors of length `dim`.
+    pub fn new(memory: usize, dim: usize) -> Self {
+        Self {
+            memory,
+            dim,
+            df: vec![0.0; memory * dim],
+            dg: vec![0.0; memory * dim],
+            gram: vec![0.0; memory * memory],
+            len: 0,
+            head: 0,
+            f_prev: vec![0.0; dim],
+            g_prev: vec![0.0; dim],
+            has_prev: false,
+            rhs: vec![0.0; memory],
+            sys: vec![0.0; memory * memory],
+            gamma: vec![0.0; memory],
+        }
+    }
+
+    /// Forgets the history (after a rho change or a rejected step).
+    pub fn reset(&mut self) {
+        self.len = 0;
+        self.head = 0;
+        self.has_prev = false;
+    }
+
+    /// Records the pair `(x, g = g(x))` and writes the accelerated next point into `out`.
+    /// Returns false (and leaves `out` = `g`) when there is no history yet or the
+    /// least-squares system is degenerate.
+    pub fn step(&mut self, x: &[f64], g: &[f64], out: &mut [f64]) -> bool {
+        debug_assert_eq!(x.len(), self.dim);
+        out.copy_from_slice(g);
+        if self.memory == 0 {
+            return false;
+        }
+        let m = self.memory;
+        if self.has_prev {
+            // New column: df = f - f_prev, dg = g - g_prev.
+            let col = if self.len < m {
+                self.len += 1;
+                (self.head + self.len - 1) % m
+            } else {
+                let c = self.head;
+                self.head = (self.head + 1) % m;
+                c
+            };
+            let (dfc, dgc) = (
+                &mut self.df[col * self.dim..(col + 1) * self.dim],
+                &mut self.dg[col * self.dim..(col + 1) * self.dim],
+            );
+            for i in 0..self.dim {
+                let f = g[i] - x[i];
+                dfc[i] = f - self.f_prev[i];
+                dgc[i] = g[i] - self.g_prev[i];
+            }
+            for j in 0..m {
+                if self.is_live(j) {
+                    let v = dot_cols(&self.df, self.dim, col, j);
+                    self.gram[col * m + j] = v;
+                    self.gram[j * m + col] = v;
+                }
+            }
+        }
+        for i in 0..self.dim {
+            self.f_prev[i] = g[i] - x[i];
+            self.g_prev[i] = g[i];
+        }
+        self.has_prev = true;
+        if self.len == 0 {
+            return false;
+        }
+        // Normal equations over the live columns, in ring order.
+        let k = self.len;
+        let mut trace = 0.0;
+        for a in 0..k {
+            let ca = (self.head + a) % m;
+            let dfa = &self.df[ca * self.dim..(ca + 1) * self.dim];
+            self.rhs[a] = dfa.iter().zip(&self.f_prev).map(|(p, q)| p * q).sum();
+            for b in 0..k {
+                let cb = (self.head + b) % m;
+                self.sys[a * k + b] = self.gram[ca * m + cb];
+            }
+            trace += self.sys[a * k + a];
+        }
+        if !(trace > 0.0 && trace.is_finite()) {
+            return false;
+        }
+        let reg = 1e-10 * trace / k as f64;
+        for a in 0..k {
+            self.sys[a * k + a] += reg;
+        }
+        if !solve_dense(
+            &mut self.sys[..k * k],
+            &mut self.rhs[..k],
+            &mut self.gamma[..k],
+        ) {
+            return false;
+        }
+        for a in 0..k {
+            let ca = (self.head + a) % m;
+            let gma = self.gamma[a];
+            let dga = &self.dg[ca * self.dim..(ca + 1) * self.dim];
+            for (o, d) in out.iter_mut().zip(dga) {
+                *o -= gma * d;
+            }
+        }
+        out.iter().all(|v| v.is_finite())
+    }
+
+    fn is_live(&self, col: usize) -> bool {
+        let m = self.memory;
+        (col + m - self.head) % m < self.len
+    }
+}
+
+fn dot_cols(buf: &[f64], dim: usize, a: usize, b: usize) -> f64 {
+    buf[a * dim..(a + 1) * dim]
+        .iter()
+        .zip(&buf[b * dim..(b + 1) * dim])
+        .map(|(p, q)| p * q)
+        .sum()
+}
+
+/// Solves the `k x k` row-major system in place by Gaussian elimination with partial
+/// pivoting; false when singular.
+fn solve_dense(a: &mut [f64], b: &mut [f64], x: &mut [f64]) -> bool {
+    let k = b.len();
+    for col in 0..k {
+        let piv = (col..k)
+            .max_by(|&i, &j| a[i * k + col].abs().total_cmp(&a[j * k + col].abs()))
+            .unwrap_or(col);
+        if a[piv * k + col].abs() < 1e-300 {
+            return false;
+        }
+        if piv != col {
+            for j in 0..k {
+                a.swap(piv * k + j, col * k + j);
+            }
+            b.swap(piv, col);
+        }
+        for i in col + 1..k {
+            let f = a[i * k + col] / a[col * k + col];
+            for j in col..k {
+                a[i * k + j] -= f * a[col * k + j];
+            }
+            b[i] -= f * b[col];
+        }
+    }
+    for i in (0..k).rev() {
+        let s: f64 = (i + 1..k).map(|j| a[i * k + j] * x[j]).sum();
+        x[i] = (b[i] - s) / a[i * k + i];
+    }
+    x.iter().all(|v| v.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// On a linear contraction `g(x) = A x + b`, AA(m) with m >= dim converges in a few steps.
+    #[test]
+    fn accelerates_a_linear_map() {
+        let a = [[0.9, 0.05], [0.0, 0.8]];
+        let b = [1.0, -2.0];
+        let g = |x: &[f64]| {
+            [
+                a[0][0] * x[0] + a[0][1] * x[1] + b[0],
+                a[1][0] * x[0] + a[1][1] * x[1] + b[1],
+            ]
+        };
+        // Fixed point solves (I - A) x = b.
+        let x2 = b[1] / (1.0 - a[1][1]);
+        let x1 = (b[0] + a[0][1] * x2) / (1.0 - a[0][0]);
+        let mut aa = Anderson::new(2, 2);
+        let mut x = [0.0, 0.0];
+        let mut next = [0.0, 0.0];
+        for _ in 0..6 {
+            let gx = g(&x);
+            aa.step(&x, &gx, &mut next);
+            x = next;
+        }
+        assert!(
+            (x[0] - x1).abs() < 1e-8 && (x[1] - x2).abs() < 1e-8,
+            "{x:?} vs {x1} {x2}"
+        );
+    }
+}

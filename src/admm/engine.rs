@@ -1,0 +1,312 @@
+//! The ADMM loop: one implementation for every problem, rule and acceleration.
+
+use super::anderson::Anderson;
+use super::rho_rule::{IterationView, RhoAdapter};
+use super::{Relaxation, SUpdate, Splitting, Variant};
+use crate::csc::norm2;
+use crate::error::{Error, Status};
+use crate::stats::TracePoint;
+use std::time::Instant;
+
+/// Settings the loop needs.
+#[derive(Debug, Clone)]
+pub struct EngineSettings {
+    /// Target of the problem's error measure.
+    pub tolerance: f64,
+    /// Iteration limit.
+    pub max_iterations: usize,
+    /// Wall-clock limit in seconds (infinite for none).
+    pub time_limit: f64,
+    /// Penalty rule and relaxation.
+    pub variant: Variant,
+    /// Anderson memory (0 = off). When on, it replaces the Nesterov relaxation.
+    pub anderson: usize,
+    /// When the s parameter is updated.
+    pub s_update: SUpdate,
+    /// Absolute tolerance of the seed's residual test (eq. 16).
+    pub eps_abs: f64,
+    /// Relative tolerance of the seed's residual test (eq. 16).
+    pub eps_rel: f64,
+    /// The error measure is evaluated every this many iterations (and whenever the
+    /// residual test passes).
+    pub check_every: usize,
+    /// Record a trace point per iteration.
+    pub trace: bool,
+    /// Bounds on rho relative to its initial value.
+    pub rho_range: f64,
+}
+
+/// The iterate the loop works on; the caller initializes it (warm start) and reads it back.
+#[derive(Debug, Clone)]
+pub struct EngineState {
+    /// `y` (u~ for the global form, z for the local form).
+    pub y: Vec<f64>,
+    /// Scaled dual.
+    pub zeta: Vec<f64>,
+    /// `A x` of the last x-step.
+    pub ax: Vec<f64>,
+    /// Penalty.
+    pub rho: f64,
+}
+
+/// What the loop reports.
+#[derive(Debug, Clone, Default)]
+pub struct EngineOutcome {
+    /// Outcome (None while running).
+    pub status: Option<Status>,
+    /// Iterations done.
+    pub iterations: usize,
+    /// Last error measure.
+    pub error: f64,
+    /// Last primal residual.
+    pub primal: f64,
+    /// Last dual residual.
+    pub dual: f64,
+    /// Anderson steps accepted.
+    pub aa_accepted: usize,
+    /// Anderson steps rejected.
+    pub aa_rejected: usize,
+    /// Per-iteration trace (empty unless asked for).
+    pub trace: Vec<TracePoint>,
+}
+
+fn finite(x: &[f64]) -> bool {
+    x.iter().all(|v| v.is_finite())
+}
+
+/// Runs ADMM from `state` until the problem's error measure reaches the tolerance or a
+/// limit is hit. `state` holds the last finite iterate on return.
+pub fn run(
+    sp: &mut dyn Splitting,
+    state: &mut EngineState,
+    set: &EngineSettings,
+    start: Instant,
+) -> Result<EngineOutcome, Error> {
+    let l = sp.dim();
+    let rho0 = state.rho;
+    let (rho_min, rho_max) = (rho0 / set.rho_range, rho0 * set.rho_range);
+    sp.set_rho(state.rho)?;
+    let mut out = EngineOutcome {
+        error: f64::INFINITY,
+        ..Default::default()
+    };
+
+    // Inputs of the next iteration (hat variables), its outputs, and work vectors.
+    let mut y_in = state.y.clone();
+    let mut z_in = state.zeta.clone();
+    let mut y = vec![0.0; l];
+    let mut zeta = vec![0.0; l];
+    let mut ax = vec![0.0; l];
+    let mut diff = vec![0.0; l];
+    // Nesterov memory: previous outputs.
+    let mut y_prev = y_in.clone();
+    let mut z_prev = z_in.clone();
+    let (mut alpha, mut e_prev) = (1.0f64, f64::INFINITY);
+    let eta = 0.999;
+    let relaxation = if set.anderson > 0 {
+        Relaxation::None
+    } else {
+        set.variant.relaxation
+    };
+    // Anderson on the stacked state (y, zeta).
+    let mut aa = Anderson::new(set.anderson, 2 * l);
+    let mut aa_x = vec![0.0; if set.anderson > 0 { 2 * l } else { 0 }];
+    let mut aa_g = aa_x.clone();
+    let mut aa_next = aa_x.clone();
+    let mut plain = aa_x.clone(); // fallback when an accelerated point is rejected
+    let mut last_was_aa = false;
+    let mut res_prev = f64::INFINITY;
+
+    let mut rule = RhoAdapter::new(set.variant.rule, l);
+    let mut rho = state.rho;
+    let mut inner_tol = if set.s_update == SUpdate::External {
+        1e-3f64.max(set.tolerance)
+    } else {
+        0.0
+    };
+
+    for k in 0..set.max_iterations {
+        sp.x_step(&y_in, &z_in, rho, &mut ax);
+        sp.y_step(&ax, &z_in, &mut y);
+        let c = sp.c();
+        let mut primal_sq = 0.0;
+        for i in 0..l {
+            let r = ax[i] - c[i] - y[i];
+            zeta[i] = z_in[i] + r;
+            primal_sq += r * r;
+            diff[i] = y[i] - y_in[i];
+        }
+        let primal = primal_sq.sqrt();
+        let dual = rho * sp.norm_at(&diff);
+        out.iterations = k + 1;
+        out.primal = primal;
+        out.dual = dual;
+        if !(finite(&ax) && finite(&y) && finite(&zeta) && dual.is_finite()) {
+            out.status = Some(Status::NumericalError);
+            break; // state still holds the last finite iterate
+        }
+
+        // Anderson safeguard: an accelerated input whose fixed-point residual grew is
+        // rejected; the iteration restarts from the plain point it replaced.
+        if set.anderson > 0 {
+            let res = (primal_sq + norm2(&diff).powi(2)).sqrt();
+            if last_was_aa && res > res_prev {
+                out.aa_rejected += 1;
+                aa.reset();
+                last_was_aa = false;
+                y_in.copy_from_slice(&plain[..l]);
+                z_in.copy_from_slice(&plain[l..]);
+                continue;
+            }
+            if last_was_aa {
+                out.aa_accepted += 1;
+            }
+            res_prev = res;
+        }
+
+        // The state now holds a finite iterate.
+        state.y.copy_from_slice(&y);
+        state.zeta.copy_from_slice(&zeta);
+        state.ax.copy_from_slice(&ax);
+        state.rho = rho;
+
+        // Stopping: the residual test of eq. (16) is a cheap trigger; the decision is the
+        // problem's own error measure, also evaluated periodically.
+        let c = sp.c();
+        let eps_pri =
+            (l as f64).sqrt() * set.eps_abs + set.eps_rel * norm2(&ax).max(norm2(&y)).max(norm2(c));
+        let residual_test = primal <= eps_pri && {
+            let eps_dual = (l as f64).sqrt() * set.eps_abs + set.eps_rel * rho * sp.norm_at(&zeta);
+            dual <= eps_dual
+        };
+        let check = set.trace
+            || residual_test
+            || (k + 1) % set.check_every == 0
+            || k + 1 == set.max_iterations;
+        if check {
+            out.error = sp.error(&ax, &y, &zeta, rho);
+            if set.trace {
+                out.trace.push(TracePoint {
+                    iteration: k + 1,
+                    seconds: start.elapsed().as_secs_f64(),
+                    error: out.error,
+                    primal_residual: primal,
+                    dual_residual: dual,
+                    rho,
+                });
+            }
+            if out.error <= set.tolerance {
+                out.status = Some(Status::Solved);
+                break;
+            }
+        }
+        if start.elapsed().as_secs_f64() > set.time_limit {
+            out.status = Some(Status::TimeLimit);
+            break;
+        }
+
+        // s update.
+        match set.s_update {
+            SUpdate::Internal => {
+                sp.update_s(&ax, &y);
+            }
+            SUpdate::External => {
+                let scale = norm2(&ax).max(norm2(&y)).max(norm2(sp.c())).max(1e-300);
+                if primal <= inner_tol * scale
+                    && dual <= inner_tol * rho * sp.norm_at(&zeta).max(1e-300)
+                {
+                    sp.update_s(&ax, &y);
+                    inner_tol = (inner_tol * 0.1).max(0.1 * set.tolerance);
+                }
+            }
+        }
+
+        // Next penalty, from this iteration's quantities.
+        let dual_scale = if rule.needs_dual_scale() {
+            sp.norm_at(&zeta)
+        } else {
+            0.0
+        };
+        let view = IterationView {
+            k,
+            rho,
+            primal,
+            dual,
+            primal_scale: norm2(&ax).max(norm2(&y)).max(norm2(sp.c())),
+            dual_scale,
+            ax: &ax,
+            y: &y,
+            zeta: &zeta,
+            zeta_in: &z_in,
+            y_in: &y_in,
+            c: sp.c(),
+        };
+        let rho_next = rule.next_rho(&view).clamp(rho_min, rho_max);
+
+        // Next input: Anderson, Nesterov relaxation (with restart), or the plain output.
+        if set.anderson > 0 {
+            aa_x[..l].copy_from_slice(&y_in);
+            aa_x[l..].copy_from_slice(&z_in);
+            aa_g[..l].copy_from_slice(&y);
+            aa_g[l..].copy_from_slice(&zeta);
+            last_was_aa = aa.step(&aa_x, &aa_g, &mut aa_next);
+            plain.copy_from_slice(&aa_g);
+            y_in.copy_from_slice(&aa_next[..l]);
+            z_in.copy_from_slice(&aa_next[l..]);
+        } else {
+            let mut relax = relaxation != Relaxation::None;
+            if relaxation == Relaxation::NesterovRestart {
+                let e = norm_diff_sq(&zeta, &z_in) + norm_diff_sq(&y, &y_in);
+                if e < eta * e_prev {
+                    e_prev = e;
+                } else {
+                    relax = false;
+                    alpha = 1.0;
+                    e_prev /= eta;
+                }
+            }
+            if relax {
+                let alpha_next = 0.5 * (1.0 + (1.0 + 4.0 * alpha * alpha).sqrt());
+                let beta = (alpha - 1.0) / alpha_next;
+                for i in 0..l {
+                    y_in[i] = y[i] + beta * (y[i] - y_prev[i]);
+                    z_in[i] = zeta[i] + beta * (zeta[i] - z_prev[i]);
+                }
+                alpha = alpha_next;
+            } else {
+                y_in.copy_from_slice(&y);
+                z_in.copy_from_slice(&zeta);
+            }
+            y_prev.copy_from_slice(&y);
+            z_prev.copy_from_slice(&zeta);
+        }
+
+        if rho_next != rho {
+            // Scaled form: the unscaled dual rho * zeta is what must stay put.
+            let s = rho / rho_next;
+            for v in z_in
+                .iter_mut()
+                .chain(z_prev.iter_mut())
+                .chain(plain.iter_mut().skip(l))
+            {
+                *v *= s;
+            }
+            rho = rho_next;
+            sp.set_rho(rho)?;
+            aa.reset();
+            last_was_aa = false;
+            res_prev = f64::INFINITY;
+        }
+    }
+    if out.status.is_none() {
+        out.status = Some(Status::MaxIterations);
+    }
+    if out.status != Some(Status::Solved) {
+        out.error = sp.error(&state.ax, &state.y, &state.zeta, state.rho);
+    }
+    Ok(out)
+}
+
+fn norm_diff_sq(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| (p - q) * (p - q)).sum()
+}

@@ -1,0 +1,55 @@
+//! The one ADMM engine. A problem plugs in through [`Splitting`]; the engine owns the loop,
+//! the stopping test, the penalty rules, relaxation/restart and Anderson acceleration.
+//!
+//! Every problem is written as `min f(x) + g(y)  s.t.  A x - y = c` in scaled form, with the
+//! iteration state `(y, zeta)` in the constraint space:
+//!
+//! ```text
+//! x+    = argmin f(x) + rho/2 ||A x - y - c + zeta||^2      (Splitting::x_step, gives A x+)
+//! y+    = prox_g(A x+ - c + zeta)                           (Splitting::y_step)
+//! zeta+ = zeta + A x+ - c - y+
+//! ```
+
+mod anderson;
+mod engine;
+mod rho_rule;
+mod variant;
+
+pub use anderson::Anderson;
+pub use engine::{run, EngineOutcome, EngineSettings, EngineState};
+pub use rho_rule::RhoRule;
+pub use variant::{Relaxation, Variant};
+
+use crate::error::Error;
+
+/// What a problem supplies to the engine.
+pub trait Splitting {
+    /// Dimension of the constraint space (length of `y`, `zeta`, `A x`).
+    fn dim(&self) -> usize;
+    /// Makes `rho` the current penalty (refactorizes when needed).
+    fn set_rho(&mut self, rho: f64) -> Result<(), Error>;
+    /// x-update from `(y, zeta)`: writes `A x+` into `ax`.
+    fn x_step(&mut self, y: &[f64], zeta: &[f64], rho: f64, ax: &mut [f64]);
+    /// y-update: `y = prox_g(ax - c + zeta)`.
+    fn y_step(&self, ax: &[f64], zeta: &[f64], y: &mut [f64]);
+    /// The constant `c` of the constraint `A x - y = c`.
+    fn c(&self) -> &[f64];
+    /// `||A^T d||` (dual residual and its scale).
+    fn norm_at(&mut self, d: &[f64]) -> f64;
+    /// Updates the problem parameter `s` from the current iterate (De Saxce shift for
+    /// contact problems). Returns the relative change of the shift (0 when there is none).
+    fn update_s(&mut self, _ax: &[f64], _y: &[f64]) -> f64 {
+        0.0
+    }
+    /// The problem's own error measure at the current iterate (after `x_step`).
+    fn error(&mut self, ax: &[f64], y: &[f64], zeta: &[f64], rho: f64) -> f64;
+}
+
+/// When the s parameter is updated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SUpdate {
+    /// Every iteration, from the current iterate (seed 000 section 8.2).
+    Internal,
+    /// After each inner ADMM solve of the convex problem with s fixed (section 8.3).
+    External,
+}

@@ -1,0 +1,120 @@
+//! Initial penalty rules of seed 000 section 4.1.
+//!
+//! For the global form the QP matrix is `M` and the constraint matrix `H^T`; for the local
+//! form they are `W` and `I`, so Ghadimi's `1 / sqrt(l_min l_max (A Q^-1 A^T))` and
+//! Di Cairano's `sqrt(l_min l_max (Q))` both become `sqrt(l_min l_max (W))` there (smallest
+//! non-zero eigenvalue of the symmetric part of W, which is usually singular).
+
+use crate::error::Error;
+use crate::problem::{GlobalProblem, LocalProblem, Problem};
+use nalgebra::{DMatrix, SymmetricEigen};
+
+/// How the first rho is chosen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum InitialRho {
+    /// rho = 1 (eq. 37).
+    Normal,
+    /// `||M||_1 / ||H||_1` (eq. 36); `||W||_1` for the local form.
+    Acary,
+    /// Ghadimi's optimal rho from the Delassus spectrum (eq. 34).
+    Ghadimi,
+    /// Di Cairano's optimal rho from the spectrum of M (eq. 35).
+    DiCairano,
+    /// A given value.
+    Given(f64),
+}
+
+impl InitialRho {
+    /// Parses `normal`, `acary`, `ghadimi`, `dicairano` or `given` (with `value`).
+    pub fn from_name(name: &str, value: f64) -> Result<Self, Error> {
+        match name {
+            "normal" => Ok(InitialRho::Normal),
+            "acary" => Ok(InitialRho::Acary),
+            "ghadimi" => Ok(InitialRho::Ghadimi),
+            "dicairano" => Ok(InitialRho::DiCairano),
+            "given" if value.is_finite() && value > 0.0 => Ok(InitialRho::Given(value)),
+            "given" => Err(Error::InvalidSetting {
+                name: "initial_rho",
+                reason: format!("a given rho must be positive and finite, got {value}"),
+            }),
+            _ => Err(Error::InvalidSetting {
+                name: "initial_rho",
+                reason: format!(
+                    "unknown rule '{name}' (expected normal, acary, ghadimi, dicairano or given)"
+                ),
+            }),
+        }
+    }
+
+    /// The rule's name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            InitialRho::Normal => "normal",
+            InitialRho::Acary => "acary",
+            InitialRho::Ghadimi => "ghadimi",
+            InitialRho::DiCairano => "dicairano",
+            InitialRho::Given(_) => "given",
+        }
+    }
+}
+
+/// Smallest eigenvalue above `1e-10 * largest`, and the largest, of a symmetric matrix.
+fn spectrum_bounds(a: DMatrix<f64>) -> (f64, f64) {
+    let eig = SymmetricEigen::new(a).eigenvalues;
+    let max = eig.iter().cloned().fold(0.0f64, f64::max);
+    let min = eig
+        .iter()
+        .cloned()
+        .filter(|&l| l > 1e-10 * max)
+        .fold(f64::INFINITY, f64::min);
+    (min, max)
+}
+
+fn dense(a: &crate::csc::CscMatrix) -> DMatrix<f64> {
+    DMatrix::from_column_slice(a.nrows(), a.ncols(), &a.to_dense())
+}
+
+fn positive(rho: f64) -> f64 {
+    if rho.is_finite() && rho > 0.0 {
+        rho
+    } else {
+        1.0
+    }
+}
+
+/// The first rho of a problem under a rule (1 when the rule degenerates, e.g. H = 0).
+pub fn initial_rho(rule: InitialRho, p: &Problem) -> Result<f64, Error> {
+    Ok(positive(match (rule, p) {
+        (InitialRho::Normal, _) => 1.0,
+        (InitialRho::Given(r), _) => r,
+        (InitialRho::Acary, Problem::Global(g)) => g.m.norm_1() / g.h.norm_1(),
+        (InitialRho::Acary, Problem::Local(l)) => l.w.norm_1(),
+        (InitialRho::Ghadimi, Problem::Global(g)) => ghadimi_global(g)?,
+        (InitialRho::DiCairano, Problem::Global(g)) => {
+            let (min, max) = spectrum_bounds(dense(&g.m));
+            (min * max).sqrt()
+        }
+        (InitialRho::Ghadimi | InitialRho::DiCairano, Problem::Local(l)) => local_spectral(l),
+    }))
+}
+
+/// `1 / sqrt(l_min l_max)` of the Delassus `H^T M^-1 H`, through its non-zero spectrum
+/// `L^-1 H H^T L^-T` (n x n, with `M = L L^T`).
+fn ghadimi_global(g: &GlobalProblem) -> Result<f64, Error> {
+    let chol = dense(&g.m)
+        .cholesky()
+        .ok_or(Error::NotPositiveDefinite { field: "M" })?;
+    let x = chol
+        .l()
+        .solve_lower_triangular(&dense(&g.h))
+        .ok_or(Error::NotPositiveDefinite { field: "M" })?;
+    let (min, max) = spectrum_bounds(&x * x.transpose());
+    Ok(1.0 / (min * max).sqrt())
+}
+
+fn local_spectral(l: &LocalProblem) -> f64 {
+    let w = dense(&l.w);
+    let sym = (&w + w.transpose()) * 0.5;
+    let (min, max) = spectrum_bounds(sym);
+    (min * max).sqrt()
+}

@@ -1,0 +1,186 @@
+//! Local form: `x` and `y = z` both impulses, `A = I`, `c = 0`, g = indicator of `K`.
+//!
+//! x-update: `(W + rho I) x = -(q + Phi(s)) + rho (z - zeta)`, by Cholesky when W is
+//! symmetric (up to round-off), by LU otherwise.
+
+use super::{de_saxce_shift, initial_shift};
+use crate::admm::Splitting;
+use crate::cone::{get3, project_cone, set3};
+use crate::csc::norm2;
+use crate::error::Error;
+use crate::linsys::param_matrix::triplets;
+use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
+use crate::measure::complementarity_residual;
+use crate::problem::LocalProblem;
+
+/// Relative asymmetry above which W is treated as non-symmetric.
+const SYMMETRY_TOL: f64 = 1e-12;
+
+/// The local contact problem as an ADMM splitting.
+pub struct LocalSplitting {
+    p: LocalProblem,
+    factor: SparseFactor,
+    symmetric: bool,
+    q_shift: Vec<f64>,
+    phi: Vec<f64>,
+    zero: Vec<f64>,
+    u: Vec<f64>,
+}
+
+impl LocalSplitting {
+    /// Chooses Cholesky or LU from the symmetry of W and analyses the pattern.
+    pub fn new(p: LocalProblem) -> Result<Self, Error> {
+        let m = p.q.len();
+        let (matrix, kind, symmetric) = system_matrix(&p);
+        let factor = SparseFactor::new("W + rho I", matrix, kind)?;
+        let mut phi = vec![0.0; m];
+        initial_shift(&p.mu, p.w.norm_fro(), &mut phi);
+        let q_shift = p.q.iter().zip(&phi).map(|(q, s)| q + s).collect();
+        Ok(Self {
+            factor,
+            symmetric,
+            q_shift,
+            phi,
+            zero: vec![0.0; m],
+            u: vec![0.0; m],
+            p,
+        })
+    }
+
+    /// Takes new values on the same sizes and pattern: numeric refactorization only.
+    pub fn update(&mut self, p: LocalProblem) -> Result<(), Error> {
+        let (matrix, _, symmetric) = system_matrix(&p);
+        if symmetric != self.symmetric {
+            // The factorization kind changes with the symmetry of W: start over.
+            *self = Self::new(p)?;
+            return Ok(());
+        }
+        self.factor.replace_matrix(matrix)?;
+        self.p = p;
+        self.reset_shift();
+        Ok(())
+    }
+
+    /// The problem.
+    pub fn problem(&self) -> &LocalProblem {
+        &self.p
+    }
+
+    /// True when W + rho I is factorized by Cholesky (W symmetric).
+    pub fn symmetric(&self) -> bool {
+        self.symmetric
+    }
+
+    /// Numeric factorizations so far.
+    pub fn refactorizations(&self) -> usize {
+        self.factor.refactorizations()
+    }
+
+    /// Restarts the De Saxce shift from the initial guess of eq. (61).
+    pub fn reset_shift(&mut self) {
+        initial_shift(&self.p.mu, self.p.w.norm_fro(), &mut self.phi);
+        self.refresh();
+    }
+
+    /// Sets the De Saxce shift from an impulse (warm start).
+    pub fn shift_from_impulse(&mut self, r: &[f64]) {
+        self.update_s(r, r);
+    }
+
+    fn refresh(&mut self) {
+        for i in 0..self.q_shift.len() {
+            self.q_shift[i] = self.p.q[i] + self.phi[i];
+        }
+    }
+
+    /// Local velocity `u = W r + q` of an impulse.
+    pub fn velocity(&self, r: &[f64], u: &mut [f64]) {
+        u.copy_from_slice(&self.p.q);
+        self.p.w.mul_vec(1.0, r, 1.0, u);
+    }
+}
+
+/// `W + rho I`: Cholesky on the upper triangle when W is symmetric, LU otherwise.
+fn system_matrix(p: &LocalProblem) -> (ParamMatrix, FactorKind, bool) {
+    let m = p.q.len();
+    let scale = p.w.values().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let symmetric =
+        p.w.asymmetry().unwrap_or(f64::INFINITY) <= SYMMETRY_TOL * scale.max(f64::MIN_POSITIVE);
+    let identity = (0..m).map(|i| (i, i, 1.0));
+    if symmetric {
+        (
+            ParamMatrix::from_triplets(m, triplets(&p.w), identity, true),
+            FactorKind::Cholesky,
+            true,
+        )
+    } else {
+        (
+            ParamMatrix::from_triplets(m, triplets(&p.w), identity, false),
+            FactorKind::Lu,
+            false,
+        )
+    }
+}
+
+impl Splitting for LocalSplitting {
+    fn dim(&self) -> usize {
+        self.p.q.len()
+    }
+
+    fn set_rho(&mut self, rho: f64) -> Result<(), Error> {
+        self.factor.set_rho(rho)
+    }
+
+    fn x_step(&mut self, y: &[f64], zeta: &[f64], rho: f64, ax: &mut [f64]) {
+        for i in 0..ax.len() {
+            ax[i] = -self.q_shift[i] + rho * (y[i] - zeta[i]);
+        }
+        self.factor.solve_in_place(ax);
+    }
+
+    fn y_step(&self, ax: &[f64], zeta: &[f64], y: &mut [f64]) {
+        for (i, &mu) in self.p.mu.iter().enumerate() {
+            let a = get3(ax, i);
+            let z = get3(zeta, i);
+            set3(
+                y,
+                i,
+                project_cone([a[0] + z[0], a[1] + z[1], a[2] + z[2]], mu),
+            );
+        }
+    }
+
+    fn c(&self) -> &[f64] {
+        &self.zero
+    }
+
+    fn norm_at(&mut self, d: &[f64]) -> f64 {
+        norm2(d)
+    }
+
+    fn update_s(&mut self, _ax: &[f64], y: &[f64]) -> f64 {
+        // u = W z + q at the projected impulse z = y.
+        let mut u = std::mem::take(&mut self.u);
+        self.velocity(y, &mut u);
+        let change = de_saxce_shift(&u, &self.p.mu, &mut self.phi);
+        self.u = u;
+        self.refresh();
+        change
+    }
+
+    fn error(&mut self, _ax: &[f64], y: &[f64], _zeta: &[f64], _rho: f64) -> f64 {
+        if !y.iter().all(|v| v.is_finite()) {
+            return f64::INFINITY;
+        }
+        let mut u = std::mem::take(&mut self.u);
+        self.velocity(y, &mut u);
+        let comp = complementarity_residual(y, &u, &self.p.mu);
+        self.u = u;
+        let q = norm2(&self.p.q);
+        if q > 1.5e-8 {
+            comp / q
+        } else {
+            comp
+        }
+    }
+}

@@ -1,0 +1,326 @@
+//! Compressed sparse column matrices: validated storage and the products the solver needs.
+
+use crate::error::Error;
+
+/// A sparse matrix in compressed-column form, 0-based, validated on construction.
+///
+/// Row indices inside a column need not be sorted; they are sorted on construction.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CscMatrix {
+    nrows: usize,
+    ncols: usize,
+    colptr: Vec<usize>,
+    rowind: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl CscMatrix {
+    /// Builds and validates a matrix. `field` names it in errors (`"M"`, `"H"`...).
+    ///
+    /// Checks: `colptr` has `ncols + 1` entries, starts at 0, is non-decreasing and ends at
+    /// `rowind.len() == values.len()`; each row index is `< nrows`; no duplicate entry in a
+    /// column; every value finite.
+    pub fn new(
+        field: &'static str,
+        nrows: usize,
+        ncols: usize,
+        colptr: Vec<usize>,
+        rowind: Vec<usize>,
+        values: Vec<f64>,
+    ) -> Result<Self, Error> {
+        let bad = |reason: String| Error::InvalidCsc { field, reason };
+        if colptr.len() != ncols + 1 {
+            return Err(bad(format!(
+                "column pointer array has {} entries, expected ncols + 1 = {}",
+                colptr.len(),
+                ncols + 1
+            )));
+        }
+        if colptr[0] != 0 {
+            return Err(bad(format!("colptr[0] = {}, expected 0", colptr[0])));
+        }
+        for j in 0..ncols {
+            if colptr[j + 1] < colptr[j] {
+                return Err(bad(format!("column pointers decrease at column {j}")));
+            }
+        }
+        let nnz = colptr[ncols];
+        if rowind.len() != nnz || values.len() != nnz {
+            return Err(bad(format!(
+                "colptr[ncols] = {nnz} but {} row indices and {} values were given",
+                rowind.len(),
+                values.len()
+            )));
+        }
+        let mut rowind = rowind;
+        let mut values = values;
+        let mut order: Vec<(usize, f64)> = Vec::new();
+        for j in 0..ncols {
+            let (start, end) = (colptr[j], colptr[j + 1]);
+            order.clear();
+            for k in start..end {
+                if rowind[k] >= nrows {
+                    return Err(bad(format!(
+                        "row index {} at entry {k} (column {j}) is out of range (nrows = {nrows})",
+                        rowind[k]
+                    )));
+                }
+                if !values[k].is_finite() {
+                    return Err(Error::InvalidValue {
+                        field,
+                        index: k,
+                        reason: "not finite",
+                    });
+                }
+                order.push((rowind[k], values[k]));
+            }
+            order.sort_by_key(|e| e.0);
+            for (k, w) in order.windows(2).enumerate() {
+                if w[0].0 == w[1].0 {
+                    return Err(bad(format!(
+                        "duplicate entry at row {} in column {j} (entry {})",
+                        w[0].0,
+                        start + k + 1
+                    )));
+                }
+            }
+            for (k, (i, v)) in order.iter().enumerate() {
+                rowind[start + k] = *i;
+                values[start + k] = *v;
+            }
+        }
+        Ok(Self {
+            nrows,
+            ncols,
+            colptr,
+            rowind,
+            values,
+        })
+    }
+
+    /// Builds a matrix from (row, column, value) triplets; duplicates are summed.
+    pub fn from_triplets(
+        field: &'static str,
+        nrows: usize,
+        ncols: usize,
+        triplets: &[(usize, usize, f64)],
+    ) -> Result<Self, Error> {
+        for (k, &(i, j, _)) in triplets.iter().enumerate() {
+            if i >= nrows || j >= ncols {
+                return Err(Error::InvalidCsc {
+                    field,
+                    reason: format!("triplet {k} at ({i}, {j}) is outside {nrows} x {ncols}"),
+                });
+            }
+        }
+        let mut sorted: Vec<(usize, usize, f64)> = triplets.to_vec();
+        sorted.sort_by_key(|&(i, j, _)| (j, i));
+        let mut colptr = vec![0usize; ncols + 1];
+        let mut rowind = Vec::with_capacity(sorted.len());
+        let mut values: Vec<f64> = Vec::with_capacity(sorted.len());
+        let mut last: Option<(usize, usize)> = None;
+        for &(i, j, v) in &sorted {
+            if last == Some((i, j)) {
+                *values.last_mut().expect("an entry was pushed") += v;
+                continue;
+            }
+            rowind.push(i);
+            values.push(v);
+            colptr[j + 1] += 1;
+            last = Some((i, j));
+        }
+        for j in 0..ncols {
+            colptr[j + 1] += colptr[j];
+        }
+        Self::new(field, nrows, ncols, colptr, rowind, values)
+    }
+
+    /// A dense row-major matrix, for tests and small examples (zeros are dropped).
+    pub fn from_dense(
+        field: &'static str,
+        nrows: usize,
+        ncols: usize,
+        rows: &[f64],
+    ) -> Result<Self, Error> {
+        if rows.len() != nrows * ncols {
+            return Err(Error::Dimension {
+                field,
+                expected: nrows * ncols,
+                found: rows.len(),
+            });
+        }
+        let mut t = Vec::new();
+        for i in 0..nrows {
+            for j in 0..ncols {
+                let v = rows[i * ncols + j];
+                if v != 0.0 {
+                    t.push((i, j, v));
+                }
+            }
+        }
+        Self::from_triplets(field, nrows, ncols, &t)
+    }
+
+    /// Identity matrix of size `n`.
+    pub fn identity(n: usize) -> Self {
+        Self {
+            nrows: n,
+            ncols: n,
+            colptr: (0..=n).collect(),
+            rowind: (0..n).collect(),
+            values: vec![1.0; n],
+        }
+    }
+
+    /// Number of rows.
+    pub fn nrows(&self) -> usize {
+        self.nrows
+    }
+    /// Number of columns.
+    pub fn ncols(&self) -> usize {
+        self.ncols
+    }
+    /// Column pointers (`ncols + 1` entries).
+    pub fn colptr(&self) -> &[usize] {
+        &self.colptr
+    }
+    /// Row indices, sorted within each column.
+    pub fn rowind(&self) -> &[usize] {
+        &self.rowind
+    }
+    /// Values, in the order of `rowind`.
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.values.len()
+    }
+
+    /// Entries of column `j` as (row, value).
+    pub fn col(&self, j: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let r = self.colptr[j]..self.colptr[j + 1];
+        self.rowind[r.clone()]
+            .iter()
+            .copied()
+            .zip(self.values[r].iter().copied())
+    }
+
+    /// `y = alpha * A x + beta * y`.
+    pub fn mul_vec(&self, alpha: f64, x: &[f64], beta: f64, y: &mut [f64]) {
+        debug_assert_eq!(x.len(), self.ncols);
+        debug_assert_eq!(y.len(), self.nrows);
+        if beta == 0.0 {
+            y.fill(0.0);
+        } else if beta != 1.0 {
+            y.iter_mut().for_each(|v| *v *= beta);
+        }
+        for (j, &xj) in x.iter().enumerate() {
+            if xj == 0.0 {
+                continue;
+            }
+            let axj = alpha * xj;
+            for k in self.colptr[j]..self.colptr[j + 1] {
+                y[self.rowind[k]] += self.values[k] * axj;
+            }
+        }
+    }
+
+    /// `y = alpha * A^T x + beta * y`.
+    pub fn mul_t_vec(&self, alpha: f64, x: &[f64], beta: f64, y: &mut [f64]) {
+        debug_assert_eq!(x.len(), self.nrows);
+        debug_assert_eq!(y.len(), self.ncols);
+        for (j, yj) in y.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for k in self.colptr[j]..self.colptr[j + 1] {
+                s += self.values[k] * x[self.rowind[k]];
+            }
+            *yj = alpha * s + if beta == 0.0 { 0.0 } else { beta * *yj };
+        }
+    }
+
+    /// Transpose.
+    pub fn transpose(&self) -> Self {
+        let mut count = vec![0usize; self.nrows + 1];
+        for &i in &self.rowind {
+            count[i + 1] += 1;
+        }
+        for i in 0..self.nrows {
+            count[i + 1] += count[i];
+        }
+        let colptr = count.clone();
+        let mut next = count;
+        let mut rowind = vec![0; self.nnz()];
+        let mut values = vec![0.0; self.nnz()];
+        for j in 0..self.ncols {
+            for (i, v) in self.col(j) {
+                rowind[next[i]] = j;
+                values[next[i]] = v;
+                next[i] += 1;
+            }
+        }
+        Self {
+            nrows: self.ncols,
+            ncols: self.nrows,
+            colptr,
+            rowind,
+            values,
+        }
+    }
+
+    /// Max absolute column sum (the matrix 1-norm).
+    pub fn norm_1(&self) -> f64 {
+        (0..self.ncols)
+            .map(|j| self.col(j).map(|(_, v)| v.abs()).sum::<f64>())
+            .fold(0.0, f64::max)
+    }
+
+    /// Frobenius norm.
+    pub fn norm_fro(&self) -> f64 {
+        self.values.iter().map(|v| v * v).sum::<f64>().sqrt()
+    }
+
+    /// Largest `|A - A^T|` entry (0 for a symmetric matrix); `None` when not square.
+    pub fn asymmetry(&self) -> Option<f64> {
+        if self.nrows != self.ncols {
+            return None;
+        }
+        let t = self.transpose();
+        let mut worst: f64 = 0.0;
+        let mut dense_col = vec![0.0; self.nrows];
+        for j in 0..self.ncols {
+            for (i, v) in self.col(j) {
+                dense_col[i] += v;
+            }
+            for (i, v) in t.col(j) {
+                dense_col[i] -= v;
+            }
+            for (i, _) in self.col(j).chain(t.col(j)) {
+                worst = worst.max(dense_col[i].abs());
+                dense_col[i] = 0.0;
+            }
+        }
+        Some(worst)
+    }
+
+    /// Dense column-major copy (small matrices only).
+    pub fn to_dense(&self) -> Vec<f64> {
+        let mut d = vec![0.0; self.nrows * self.ncols];
+        for j in 0..self.ncols {
+            for (i, v) in self.col(j) {
+                d[i + j * self.nrows] = v;
+            }
+        }
+        d
+    }
+}
+
+/// Euclidean norm.
+pub fn norm2(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// Dot product.
+pub fn dot(x: &[f64], y: &[f64]) -> f64 {
+    x.iter().zip(y).map(|(a, b)| a * b).sum()
+}

@@ -1,0 +1,115 @@
+//! Typed errors of the library and the outcome (status) of a solve.
+
+use std::fmt;
+
+/// Why a call failed. Every variant names what was wrong; none of them is a solve outcome
+/// (see [`Status`] for that).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Error {
+    /// Two sizes that must agree do not (`field` is the offending argument).
+    Dimension {
+        /// Argument whose size is wrong.
+        field: &'static str,
+        /// Size that was expected.
+        expected: usize,
+        /// Size that was given.
+        found: usize,
+    },
+    /// A compressed-column matrix has an invalid structure.
+    InvalidCsc {
+        /// Matrix name (`M`, `H`, `G`, `W`).
+        field: &'static str,
+        /// What is wrong, with the index.
+        reason: String,
+    },
+    /// A value is NaN, infinite or out of its range (negative friction coefficient...).
+    InvalidValue {
+        /// Argument that holds the value.
+        field: &'static str,
+        /// Index of the value inside the argument.
+        index: usize,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// A matrix that must be positive definite (M, `M + rho H H^T`, `W + rho I`) is not.
+    NotPositiveDefinite {
+        /// Matrix that failed to factorize.
+        field: &'static str,
+    },
+    /// The factorization of a (non-symmetric) matrix failed: singular.
+    Singular {
+        /// Matrix that failed to factorize.
+        field: &'static str,
+    },
+    /// A setting is out of range or unknown.
+    InvalidSetting {
+        /// Setting name.
+        name: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The operation does not apply here (e.g. FCLib I/O without the `fclib` feature).
+    Unsupported(String),
+    /// Reading or writing a file failed.
+    Io(String),
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Dimension {
+                field,
+                expected,
+                found,
+            } => {
+                write!(
+                    f,
+                    "dimension mismatch in {field}: expected {expected}, found {found}"
+                )
+            }
+            Error::InvalidCsc { field, reason } => {
+                write!(f, "invalid CSC matrix {field}: {reason}")
+            }
+            Error::InvalidValue {
+                field,
+                index,
+                reason,
+            } => {
+                write!(f, "invalid value in {field}[{index}]: {reason}")
+            }
+            Error::NotPositiveDefinite { field } => write!(f, "{field} is not positive definite"),
+            Error::Singular { field } => write!(f, "{field} is singular"),
+            Error::InvalidSetting { name, reason } => write!(f, "invalid setting {name}: {reason}"),
+            Error::Unsupported(what) => write!(f, "unsupported: {what}"),
+            Error::Io(what) => write!(f, "i/o error: {what}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// Outcome of a solve that ran (a solve that could not run returns an [`Error`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(C)]
+pub enum Status {
+    /// The error measure reached the tolerance.
+    Solved = 0,
+    /// The iteration limit was reached first.
+    MaxIterations = 1,
+    /// The time limit was reached first.
+    TimeLimit = 2,
+    /// An iterate became non-finite; the last finite iterate is kept.
+    NumericalError = 3,
+}
+
+impl Status {
+    /// Lower-case name used by the command line tool and in JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Solved => "solved",
+            Status::MaxIterations => "max_iterations",
+            Status::TimeLimit => "time_limit",
+            Status::NumericalError => "numerical_error",
+        }
+    }
+}

@@ -1,0 +1,258 @@
+//! Sparse factorization of a [`ParamMatrix`] with faer, reused across rho values.
+
+use super::ParamMatrix;
+use crate::error::Error;
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, LltRef, SymbolicCholesky,
+    SymmetricOrdering,
+};
+use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, NumericLu, SymbolicLu};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par, Side};
+
+/// Which factorization a matrix gets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FactorKind {
+    /// Symmetric positive definite: `L L^T` (upper triangle stored).
+    Cholesky,
+    /// Symmetric quasi-definite: `L D L^T` with the first `n_positive` pivots positive and
+    /// the rest negative (upper triangle stored).
+    QuasiDefinite {
+        /// Number of leading positive pivots.
+        n_positive: usize,
+    },
+    /// General square: `L U` with partial pivoting (full pattern stored).
+    Lu,
+}
+
+enum Symbolic {
+    Cholesky(SymbolicCholesky<usize>),
+    Lu(SymbolicLu<usize>),
+}
+
+enum Numeric {
+    Cholesky(Vec<f64>),
+    Lu(Box<NumericLu<usize, f64>>),
+}
+
+/// Number of numeric factors kept for recently used rho values.
+const CACHE: usize = 3;
+
+/// Factorization of `A(rho)`; `set_rho` refactorizes numerically (or reuses a cached factor),
+/// `solve_in_place` solves without allocating.
+pub struct SparseFactor {
+    kind: FactorKind,
+    name: &'static str,
+    matrix: ParamMatrix,
+    values: Vec<f64>,
+    symbolic: Symbolic,
+    signs: Vec<i8>,
+    cache: Vec<(f64, Numeric)>,
+    mem: MemBuffer,
+    refactorizations: usize,
+}
+
+impl SparseFactor {
+    /// Symbolic analysis of the pattern (AMD ordering for the symmetric kinds) and sizing
+    /// of the workspace. `name` labels the matrix in errors.
+    pub fn new(name: &'static str, matrix: ParamMatrix, kind: FactorKind) -> Result<Self, Error> {
+        let n = matrix.n;
+        let pattern =
+            SymbolicSparseColMatRef::new_checked(n, n, &matrix.colptr, None, &matrix.rowind);
+        let oom = |_| Error::Unsupported(format!("out of memory analysing {name}"));
+        let (symbolic, req) = match kind {
+            FactorKind::Cholesky | FactorKind::QuasiDefinite { .. } => {
+                let s = factorize_symbolic_cholesky(
+                    pattern,
+                    Side::Upper,
+                    SymmetricOrdering::Amd,
+                    CholeskySymbolicParams::default(),
+                )
+                .map_err(oom)?;
+                let req = StackReq::any_of(&[
+                    s.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+                    s.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
+                    s.solve_in_place_scratch::<f64>(1, Par::Seq),
+                ]);
+                (Symbolic::Cholesky(s), req)
+            }
+            FactorKind::Lu => {
+                let s = factorize_symbolic_lu(pattern, Default::default()).map_err(oom)?;
+                let req = StackReq::any_of(&[
+                    s.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
+                    s.solve_in_place_scratch::<f64>(1, Par::Seq),
+                ]);
+                (Symbolic::Lu(s), req)
+            }
+        };
+        let signs = match kind {
+            FactorKind::QuasiDefinite { n_positive } => (0..n)
+                .map(|i| if i < n_positive { 1 } else { -1 })
+                .collect(),
+            _ => Vec::new(),
+        };
+        Ok(Self {
+            kind,
+            name,
+            values: vec![0.0; matrix.base.len()],
+            matrix,
+            symbolic,
+            signs,
+            cache: Vec::with_capacity(CACHE),
+            mem: MemBuffer::new(req),
+            refactorizations: 0,
+        })
+    }
+
+    /// Dimension.
+    pub fn n(&self) -> usize {
+        self.matrix.n
+    }
+
+    /// Number of numeric factorizations done so far.
+    pub fn refactorizations(&self) -> usize {
+        self.refactorizations
+    }
+
+    /// Replaces the matrix by one with the same pattern (numeric update only) and drops
+    /// every cached factor.
+    pub fn replace_matrix(&mut self, matrix: ParamMatrix) -> Result<(), Error> {
+        if matrix.n != self.matrix.n
+            || matrix.colptr != self.matrix.colptr
+            || matrix.rowind != self.matrix.rowind
+        {
+            return Err(Error::InvalidCsc {
+                field: self.name,
+                reason: "the sparsity pattern differs from the one the solver was built for".into(),
+            });
+        }
+        self.matrix = matrix;
+        self.cache.clear();
+        Ok(())
+    }
+
+    /// Makes `A(rho)` the current factor: a cached one when rho was used recently, a new
+    /// numeric factorization otherwise.
+    pub fn set_rho(&mut self, rho: f64) -> Result<(), Error> {
+        if let Some(pos) = self.cache.iter().position(|(r, _)| *r == rho) {
+            let entry = self.cache.remove(pos);
+            self.cache.push(entry);
+            return Ok(());
+        }
+        self.matrix.values_at(rho, &mut self.values);
+        let n = self.matrix.n;
+        let a = SparseColMatRef::new(
+            SymbolicSparseColMatRef::new_checked(
+                n,
+                n,
+                &self.matrix.colptr,
+                None,
+                &self.matrix.rowind,
+            ),
+            &self.values,
+        );
+        let stack = MemStack::new(&mut self.mem);
+        // Reuse the storage of the oldest cached factor when the cache is full.
+        let recycled = if self.cache.len() == CACHE {
+            Some(self.cache.remove(0).1)
+        } else {
+            None
+        };
+        let numeric = match (&self.symbolic, self.kind) {
+            (Symbolic::Cholesky(s), FactorKind::Cholesky) => {
+                let mut l = match recycled {
+                    Some(Numeric::Cholesky(v)) => v,
+                    _ => vec![0.0; s.len_val()],
+                };
+                s.factorize_numeric_llt(
+                    &mut l,
+                    a,
+                    Side::Upper,
+                    Default::default(),
+                    Par::Seq,
+                    stack,
+                    Default::default(),
+                )
+                .map_err(|_| Error::NotPositiveDefinite { field: self.name })?;
+                Numeric::Cholesky(l)
+            }
+            (Symbolic::Cholesky(s), FactorKind::QuasiDefinite { .. }) => {
+                let mut l = match recycled {
+                    Some(Numeric::Cholesky(v)) => v,
+                    _ => vec![0.0; s.len_val()],
+                };
+                let reg = LdltRegularization {
+                    dynamic_regularization_signs: Some(&self.signs),
+                    dynamic_regularization_delta: 1e-10,
+                    dynamic_regularization_epsilon: 1e-13,
+                };
+                s.factorize_numeric_ldlt(
+                    &mut l,
+                    a,
+                    Side::Upper,
+                    reg,
+                    Par::Seq,
+                    stack,
+                    Default::default(),
+                )
+                .map_err(|_| Error::NotPositiveDefinite { field: self.name })?;
+                Numeric::Cholesky(l)
+            }
+            (Symbolic::Lu(s), _) => {
+                let mut lu = match recycled {
+                    Some(Numeric::Lu(v)) => v,
+                    _ => Box::new(NumericLu::new()),
+                };
+                s.factorize_numeric_lu(&mut lu, a, Par::Seq, stack, Default::default())
+                    .map_err(|_| Error::Singular { field: self.name })?;
+                Numeric::Lu(lu)
+            }
+            _ => unreachable!("symbolic kind matches factor kind by construction"),
+        };
+        self.refactorizations += 1;
+        self.cache.push((rho, numeric));
+        Ok(())
+    }
+
+    /// Solves `A(rho) x = rhs` in place with the current factor (no heap allocation).
+    pub fn solve_in_place(&mut self, rhs: &mut [f64]) {
+        let n = self.matrix.n;
+        let rhs = MatMut::from_column_major_slice_mut(rhs, n, 1);
+        let stack = MemStack::new(&mut self.mem);
+        let (_, numeric) = self
+            .cache
+            .last()
+            .expect("set_rho is called before solve_in_place");
+        match (&self.symbolic, numeric) {
+            (Symbolic::Cholesky(s), Numeric::Cholesky(l)) => match self.kind {
+                FactorKind::Cholesky => {
+                    LltRef::new(s, l).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
+                }
+                _ => LdltRef::new(s, l).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack),
+            },
+            (Symbolic::Lu(s), Numeric::Lu(lu)) => {
+                LuRef::new_unchecked(s, lu).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
+            }
+            _ => unreachable!("numeric kind matches symbolic kind by construction"),
+        }
+    }
+
+    /// `y = A(rho) x` for the current rho (for iterative refinement), full matrix product
+    /// even when only the upper triangle is stored.
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
+        y.fill(0.0);
+        let symmetric = self.kind != FactorKind::Lu;
+        for j in 0..self.matrix.n {
+            for k in self.matrix.colptr[j]..self.matrix.colptr[j + 1] {
+                let i = self.matrix.rowind[k];
+                let v = self.values[k];
+                y[i] += v * x[j];
+                if symmetric && i != j {
+                    y[j] += v * x[i];
+                }
+            }
+        }
+    }
+}

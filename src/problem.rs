@@ -1,0 +1,223 @@
+//! Frictional contact problems in FCLib conventions (normal component first).
+//!
+//! Global form: `M v = H r + G lambda + f`, `G^T v + b = 0`, `u = H^T v + w`.
+//! Local form: `u = W r + q`. Both with `K*_mu ∋ u + Phi(u) ⊥ r ∈ K_mu` per contact.
+
+use crate::csc::CscMatrix;
+use crate::error::Error;
+
+/// Bilateral (joint) constraints `G^T v + b = 0` of a global problem.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joints {
+    /// `n x p` joint Jacobian transpose.
+    pub g: CscMatrix,
+    /// Length-`p` constant term.
+    pub b: Vec<f64>,
+}
+
+/// Global (velocity) form: mass matrix, contact Jacobian transpose and data.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GlobalProblem {
+    /// `n x n` symmetric positive definite mass matrix, both triangles stored.
+    pub m: CscMatrix,
+    /// `n x 3nc` matrix mapping contact impulses to generalized forces.
+    pub h: CscMatrix,
+    /// Length-`n` free forces.
+    pub f: Vec<f64>,
+    /// Length-`3nc` free local velocity.
+    pub w: Vec<f64>,
+    /// Length-`nc` friction coefficients.
+    pub mu: Vec<f64>,
+    /// Optional bilateral constraints.
+    pub joints: Option<Joints>,
+}
+
+/// Local (Delassus) form: `u = W r + q`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocalProblem {
+    /// `3nc x 3nc` Delassus matrix, full storage, possibly non-symmetric.
+    pub w: CscMatrix,
+    /// Length-`3nc` free velocity.
+    pub q: Vec<f64>,
+    /// Length-`nc` friction coefficients.
+    pub mu: Vec<f64>,
+}
+
+/// Either form of the problem.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Problem {
+    /// Global form.
+    Global(GlobalProblem),
+    /// Local form.
+    Local(LocalProblem),
+}
+
+fn check_len(field: &'static str, v: &[f64], expected: usize) -> Result<(), Error> {
+    if v.len() != expected {
+        return Err(Error::Dimension {
+            field,
+            expected,
+            found: v.len(),
+        });
+    }
+    check_finite(field, v)
+}
+
+fn check_finite(field: &'static str, v: &[f64]) -> Result<(), Error> {
+    match v.iter().position(|x| !x.is_finite()) {
+        Some(index) => Err(Error::InvalidValue {
+            field,
+            index,
+            reason: "not finite",
+        }),
+        None => Ok(()),
+    }
+}
+
+fn check_mu(mu: &[f64], nc: usize) -> Result<(), Error> {
+    check_len("mu", mu, nc)?;
+    match mu.iter().position(|&x| x < 0.0) {
+        Some(index) => Err(Error::InvalidValue {
+            field: "mu",
+            index,
+            reason: "friction coefficient is negative",
+        }),
+        None => Ok(()),
+    }
+}
+
+fn check_shape(
+    field: &'static str,
+    a: &CscMatrix,
+    nrows: usize,
+    ncols: usize,
+) -> Result<(), Error> {
+    if a.nrows() != nrows {
+        return Err(Error::Dimension {
+            field,
+            expected: nrows,
+            found: a.nrows(),
+        });
+    }
+    if a.ncols() != ncols {
+        return Err(Error::Dimension {
+            field,
+            expected: ncols,
+            found: a.ncols(),
+        });
+    }
+    Ok(())
+}
+
+impl GlobalProblem {
+    /// Validates and builds a global problem with `n = M.nrows()` and `nc = mu.len()`.
+    ///
+    /// Positive definiteness of M is checked when the solver factorizes it.
+    pub fn new(
+        m: CscMatrix,
+        h: CscMatrix,
+        f: Vec<f64>,
+        w: Vec<f64>,
+        mu: Vec<f64>,
+    ) -> Result<Self, Error> {
+        let n = m.nrows();
+        check_shape("M", &m, n, n)?;
+        let nc = mu.len();
+        check_shape("H", &h, n, 3 * nc)?;
+        check_len("f", &f, n)?;
+        check_len("w", &w, 3 * nc)?;
+        check_mu(&mu, nc)?;
+        Ok(Self {
+            m,
+            h,
+            f,
+            w,
+            mu,
+            joints: None,
+        })
+    }
+
+    /// Adds bilateral constraints `G^T v + b = 0` (`G` is `n x p`).
+    pub fn with_joints(mut self, g: CscMatrix, b: Vec<f64>) -> Result<Self, Error> {
+        check_shape("G", &g, self.n(), g.ncols())?;
+        check_len("b", &b, g.ncols())?;
+        self.joints = if g.ncols() == 0 {
+            None
+        } else {
+            Some(Joints { g, b })
+        };
+        Ok(self)
+    }
+
+    /// Number of velocity degrees of freedom.
+    pub fn n(&self) -> usize {
+        self.m.nrows()
+    }
+    /// Number of contacts.
+    pub fn n_contacts(&self) -> usize {
+        self.mu.len()
+    }
+}
+
+impl LocalProblem {
+    /// Validates and builds a local problem with `nc = mu.len()`.
+    pub fn new(w: CscMatrix, q: Vec<f64>, mu: Vec<f64>) -> Result<Self, Error> {
+        let nc = mu.len();
+        check_shape("W", &w, 3 * nc, 3 * nc)?;
+        check_len("q", &q, 3 * nc)?;
+        check_mu(&mu, nc)?;
+        Ok(Self { w, q, mu })
+    }
+
+    /// Number of contacts.
+    pub fn n_contacts(&self) -> usize {
+        self.mu.len()
+    }
+}
+
+impl Problem {
+    /// Number of contacts.
+    pub fn n_contacts(&self) -> usize {
+        match self {
+            Problem::Global(g) => g.n_contacts(),
+            Problem::Local(l) => l.n_contacts(),
+        }
+    }
+    /// Friction coefficients.
+    pub fn mu(&self) -> &[f64] {
+        match self {
+            Problem::Global(g) => &g.mu,
+            Problem::Local(l) => &l.mu,
+        }
+    }
+    /// Length of the velocity vector `v` (0 for a local problem).
+    pub fn n_velocities(&self) -> usize {
+        match self {
+            Problem::Global(g) => g.n(),
+            Problem::Local(_) => 0,
+        }
+    }
+    /// True when the two problems have the same sizes and sparsity patterns, so a solver
+    /// built for one can be updated to the other with a numeric refactorization only.
+    pub fn same_pattern(&self, other: &Problem) -> bool {
+        let pat = |a: &CscMatrix, b: &CscMatrix| {
+            a.nrows() == b.nrows()
+                && a.ncols() == b.ncols()
+                && a.colptr() == b.colptr()
+                && a.rowind() == b.rowind()
+        };
+        match (self, other) {
+            (Problem::Global(a), Problem::Global(b)) => {
+                pat(&a.m, &b.m)
+                    && pat(&a.h, &b.h)
+                    && match (&a.joints, &b.joints) {
+                        (None, None) => true,
+                        (Some(x), Some(y)) => pat(&x.g, &y.g),
+                        _ => false,
+                    }
+            }
+            (Problem::Local(a), Problem::Local(b)) => pat(&a.w, &b.w),
+            _ => false,
+        }
+    }
+}

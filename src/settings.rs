@@ -1,0 +1,135 @@
+//! Solver settings, validated when a solver is built.
+
+use crate::admm::{SUpdate, Variant};
+use crate::contact::InitialRho;
+use crate::error::Error;
+
+/// Which ADMM variant to run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum VariantChoice {
+    /// The measured default (see README, "Choosing `auto`").
+    Auto,
+    /// One of the twelve named variants.
+    Named(Variant),
+}
+
+impl VariantChoice {
+    /// Parses `auto` or a seed 000 name.
+    pub fn from_name(name: &str) -> Result<Self, Error> {
+        if name == "auto" {
+            Ok(VariantChoice::Auto)
+        } else {
+            Variant::from_name(name).map(VariantChoice::Named)
+        }
+    }
+}
+
+/// Settings of a solve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// Target of the error measure (ALGORITHMS.md section 7). Default 1e-8.
+    pub tolerance: f64,
+    /// Iteration limit. Default 100000.
+    pub max_iterations: usize,
+    /// Wall-clock limit of one solve, seconds. Default: none (infinity).
+    pub time_limit: f64,
+    /// ADMM variant. Default `auto`.
+    pub variant: VariantChoice,
+    /// First rho. `None`: the variant's default (Acary for `auto`, Normal otherwise... see
+    /// [`Settings::resolved`]).
+    pub initial_rho: Option<InitialRho>,
+    /// s-update mode. Default internal.
+    pub s_update: SUpdate,
+    /// Anderson memory; `None`: the variant's default (on for `auto`, off for named variants).
+    pub anderson: Option<usize>,
+    /// Record a per-iteration trace. Default off.
+    pub trace: bool,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-8,
+            max_iterations: 100_000,
+            time_limit: f64::INFINITY,
+            variant: VariantChoice::Auto,
+            initial_rho: None,
+            s_update: SUpdate::Internal,
+            anderson: None,
+            trace: false,
+        }
+    }
+}
+
+/// What `auto` runs.
+pub const AUTO_VARIANT: &str = "vp-N-He";
+/// Anderson memory `auto` uses.
+pub const AUTO_ANDERSON: usize = 5;
+/// Initial rho rule `auto` uses.
+pub const AUTO_INITIAL_RHO: InitialRho = InitialRho::Acary;
+
+/// Settings with every default resolved.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resolved {
+    /// Concrete variant.
+    pub variant: Variant,
+    /// Concrete initial rho rule.
+    pub initial_rho: InitialRho,
+    /// Concrete Anderson memory.
+    pub anderson: usize,
+}
+
+impl Settings {
+    /// Checks every value; the error names the setting.
+    pub fn validate(&self) -> Result<(), Error> {
+        let bad = |name, reason: String| Err(Error::InvalidSetting { name, reason });
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return bad(
+                "tolerance",
+                format!("must be positive and finite, got {}", self.tolerance),
+            );
+        }
+        if self.max_iterations == 0 {
+            return bad("max_iterations", "must be at least 1".into());
+        }
+        if self.time_limit.is_nan() || self.time_limit <= 0.0 {
+            return bad(
+                "time_limit",
+                format!(
+                    "must be positive (infinity for none), got {}",
+                    self.time_limit
+                ),
+            );
+        }
+        if let Some(InitialRho::Given(r)) = self.initial_rho {
+            if !(r.is_finite() && r > 0.0) {
+                return bad(
+                    "initial_rho",
+                    format!("a given rho must be positive and finite, got {r}"),
+                );
+            }
+        }
+        if let Some(m) = self.anderson {
+            if m > 64 {
+                return bad("anderson", format!("memory must be at most 64, got {m}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Resolves `auto` and the per-variant defaults.
+    pub fn resolved(&self) -> Resolved {
+        match self.variant {
+            VariantChoice::Auto => Resolved {
+                variant: Variant::from_name(AUTO_VARIANT).expect("AUTO_VARIANT is a valid name"),
+                initial_rho: self.initial_rho.unwrap_or(AUTO_INITIAL_RHO),
+                anderson: self.anderson.unwrap_or(AUTO_ANDERSON),
+            },
+            VariantChoice::Named(v) => Resolved {
+                variant: v,
+                initial_rho: self.initial_rho.unwrap_or(InitialRho::Normal),
+                anderson: self.anderson.unwrap_or(0),
+            },
+        }
+    }
+}

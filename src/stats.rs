@@ -1,0 +1,65 @@
+//! Summary statistics of a solve and the optional per-iteration trace.
+
+use crate::error::Status;
+
+/// Summary of the last solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stats {
+    /// Outcome.
+    pub status: Status,
+    /// ADMM iterations done.
+    pub iterations: usize,
+    /// Final error measure (ALGORITHMS.md section 7).
+    pub error: f64,
+    /// Final primal residual `||A x - y - c||`.
+    pub primal_residual: f64,
+    /// Final dual residual `rho ||A^T (y - y_prev)||`.
+    pub dual_residual: f64,
+    /// Final penalty.
+    pub rho: f64,
+    /// Numeric factorizations done (setup and solve).
+    pub refactorizations: usize,
+    /// Anderson steps accepted.
+    pub anderson_accepted: usize,
+    /// Anderson steps rejected by the safeguard.
+    pub anderson_rejected: usize,
+    /// Seconds spent building the solver (symbolic and first numeric factorization).
+    pub setup_seconds: f64,
+    /// Seconds spent in the last solve.
+    pub solve_seconds: f64,
+}
+
+impl Default for Stats {
+    fn default() -> Self {
+        Self {
+            status: Status::MaxIterations,
+            iterations: 0,
+            error: f64::INFINITY,
+            primal_residual: f64::INFINITY,
+            dual_residual: f64::INFINITY,
+            rho: f64::NAN,
+            refactorizations: 0,
+            anderson_accepted: 0,
+            anderson_rejected: 0,
+            setup_seconds: 0.0,
+            solve_seconds: 0.0,
+        }
+    }
+}
+
+/// One recorded iteration (only when the trace is switched on).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TracePoint {
+    /// Iteration number (1-based).
+    pub iteration: usize,
+    /// Seconds since the start of the solve.
+    pub seconds: f64,
+    /// Error measure at this iteration.
+    pub error: f64,
+    /// Primal residual.
+    pub primal_residual: f64,
+    /// Dual residual.
+    pub dual_residual: f64,
+    /// Penalty used in this iteration.
+    pub rho: f64,
+}

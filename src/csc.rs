@@ -303,6 +303,12 @@ impl CscMatrix {
         Some(worst)
     }
 
+    /// True when the matrix is square and `max |A - A^T| <= rel_tol * max |A|`.
+    pub fn is_symmetric(&self, rel_tol: f64) -> bool {
+        let scale = self.values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        self.asymmetry().is_some_and(|a| a <= rel_tol * scale)
+    }
+
     /// Dense column-major copy (small matrices only).
     pub fn to_dense(&self) -> Vec<f64> {
         let mut d = vec![0.0; self.nrows * self.ncols];

@@ -14,6 +14,10 @@
 //! assert!((r[0] - 9.81).abs() < 1e-6);
 //! ```
 #![deny(missing_docs)]
+// Numerical kernels index several vectors with one counter; iterator zips would hide that.
+#![allow(clippy::needless_range_loop)]
+// One problem or solver lives per simulation; its size does not matter, boxing would.
+#![allow(clippy::large_enum_variant)]
 
 pub mod admm;
 pub mod cone;
@@ -22,6 +26,8 @@ pub mod csc;
 pub mod error;
 #[cfg(feature = "fclib")]
 pub mod fclib;
+/// The C API (`include/cadmm.h`): opaque handles, result codes, panic boundary.
+pub mod ffi;
 pub mod linsys;
 pub mod measure;
 pub mod problem;

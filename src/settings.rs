@@ -63,6 +63,7 @@ impl Default for Settings {
 
 /// What `auto` runs.
 pub const AUTO_VARIANT: &str = "vp-N-He";
+
 /// Anderson memory `auto` uses.
 pub const AUTO_ANDERSON: usize = 5;
 /// Initial rho rule `auto` uses.
@@ -77,6 +78,8 @@ pub struct Resolved {
     pub initial_rho: InitialRho,
     /// Concrete Anderson memory.
     pub anderson: usize,
+    /// Smallest factor by which rho may change (1: every change the rule proposes).
+    pub rho_change_factor: f64,
 }
 
 impl Settings {
@@ -124,11 +127,13 @@ impl Settings {
                 variant: Variant::from_name(AUTO_VARIANT).expect("AUTO_VARIANT is a valid name"),
                 initial_rho: self.initial_rho.unwrap_or(AUTO_INITIAL_RHO),
                 anderson: self.anderson.unwrap_or(AUTO_ANDERSON),
+                rho_change_factor: 1.0,
             },
             VariantChoice::Named(v) => Resolved {
                 variant: v,
                 initial_rho: self.initial_rho.unwrap_or(InitialRho::Normal),
                 anderson: self.anderson.unwrap_or(0),
+                rho_change_factor: 1.0,
             },
         }
     }

@@ -240,6 +240,7 @@ impl Solver {
             check_every: 5,
             trace: self.settings.trace,
             rho_range: 1e8,
+            rho_change_factor: self.resolved.rho_change_factor,
         };
         let out = admm::run(self.form.splitting(), &mut self.state, &set, t0)?;
         let status = out.status.unwrap_or(Status::MaxIterations);
@@ -279,7 +280,7 @@ impl Solver {
                     r,
                     u,
                     v,
-                    lambda: g.lambda().to_vec(),
+                    lambda: g.lambda(),
                 }
             }
             Form::Local(s) => {

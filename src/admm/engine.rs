@@ -34,6 +34,10 @@ pub struct EngineSettings {
     pub trace: bool,
     /// Bounds on rho relative to its initial value.
     pub rho_range: f64,
+    /// A proposed rho is taken only when it differs from the current one by at least this
+    /// factor (1 = every change). Fewer changes mean fewer refactorizations and longer
+    /// Anderson histories, which are reset at each change.
+    pub rho_change_factor: f64,
 }
 
 /// The iterate the loop works on; the caller initializes it (warm start) and reads it back.
@@ -241,7 +245,10 @@ pub fn run(
             y_in: &y_in,
             c: sp.c(),
         };
-        let rho_next = rule.next_rho(&view).clamp(rho_min, rho_max);
+        let mut rho_next = rule.next_rho(&view).clamp(rho_min, rho_max);
+        if (rho_next / rho).max(rho / rho_next) < set.rho_change_factor {
+            rho_next = rho;
+        }
 
         // Next input: Anderson, Nesterov relaxation (with restart), or the plain output.
         if set.anderson > 0 {

@@ -28,8 +28,8 @@ enum Command {
         /// Tolerance on the error measure.
         #[arg(long, default_value_t = 1e-8)]
         tol: f64,
-        /// Iteration limit.
-        #[arg(long, default_value_t = 100_000)]
+        /// Iteration limit (the time limit is usually the one that binds).
+        #[arg(long, default_value_t = 10_000_000)]
         max_iter: usize,
         /// Time limit in seconds.
         #[arg(long)]

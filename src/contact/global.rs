@@ -1,7 +1,7 @@
 //! Global form: `x = v`, `y = u~`, `A = H^T`, `c = -w - Phi(s)`, g = indicator of `K*`.
 //!
 //! v-update: `(M + rho H H^T) v = f + rho H (u~ + c - zeta)`; with joints the
-//! quasi-definite system `[[M + rho H H^T, G], [G^T, -delta I]] [v; lambda] = [.; -b]`
+//! quasi-definite system `[[M + rho H H^T, G], [G^T, -delta I]] [v; -lambda] = [.; -b]`
 //! (delta tiny, corrected by one step of iterative refinement).
 
 use super::{de_saxce_shift, initial_shift};
@@ -16,6 +16,9 @@ use crate::problem::GlobalProblem;
 
 /// Regularization of the joint block of the quasi-definite system.
 const JOINT_DELTA: f64 = 1e-9;
+
+/// Relative asymmetry above which M is treated as non-symmetric.
+const SYMMETRY_TOL: f64 = 1e-12;
 
 /// The global contact problem as an ADMM splitting.
 pub struct GlobalSplitting {
@@ -87,8 +90,9 @@ impl GlobalSplitting {
     }
 
     /// Joint multipliers of the last x-step (empty without joints).
-    pub fn lambda(&self) -> &[f64] {
-        &self.sol[self.p.n()..]
+    pub fn lambda(&self) -> Vec<f64> {
+        // The system is solved for -lambda (see the module comment).
+        self.sol[self.p.n()..].iter().map(|x| -x).collect()
     }
 
     /// Numeric factorizations so far.
@@ -117,28 +121,44 @@ impl GlobalSplitting {
     }
 }
 
+/// Symmetric part of M (upper triangle): positive definite exactly when `x^T M x > 0`.
 fn mass_matrix(p: &GlobalProblem) -> ParamMatrix {
-    ParamMatrix::from_triplets(p.n(), triplets(&p.m), [], true)
+    let half = triplets(&p.m).flat_map(|(i, j, v)| [(i, j, 0.5 * v), (j, i, 0.5 * v)]);
+    ParamMatrix::from_triplets(p.n(), half, [], true)
 }
 
-/// `M + rho H H^T`, or the quasi-definite joint system around it.
+/// `M + rho H H^T`, or the joint system around it: `[[M + rho H H^T, G], [G^T, -delta I]]`.
+/// Cholesky / quasi-definite LDL^T on the upper triangle when M is symmetric (up to
+/// round-off), LU on the full pattern otherwise (some FEM files carry a non-symmetric M).
 fn system_matrix(p: &GlobalProblem) -> (ParamMatrix, FactorKind) {
     let n = p.n();
     let gram = gram_triplets(&p.h);
+    let symmetric = p.m.is_symmetric(SYMMETRY_TOL);
     match &p.joints {
-        None => (
+        None if symmetric => (
             ParamMatrix::from_triplets(n, triplets(&p.m), gram, true),
             FactorKind::Cholesky,
         ),
+        None => (
+            ParamMatrix::from_triplets(n, triplets(&p.m), gram, false),
+            FactorKind::Lu,
+        ),
         Some(j) => {
             let np = j.g.ncols();
-            let g = triplets(&j.g).map(|(i, k, v)| (i, n + k, v));
+            let g = triplets(&j.g).flat_map(|(i, k, v)| [(i, n + k, v), (n + k, i, v)]);
             let reg = (0..np).map(|k| (n + k, n + k, -JOINT_DELTA));
             let base: Vec<_> = triplets(&p.m).chain(g).chain(reg).collect();
-            (
-                ParamMatrix::from_triplets(n + np, base, gram, true),
-                FactorKind::QuasiDefinite { n_positive: n },
-            )
+            if symmetric {
+                (
+                    ParamMatrix::from_triplets(n + np, base, gram, true),
+                    FactorKind::QuasiDefinite { n_positive: n },
+                )
+            } else {
+                (
+                    ParamMatrix::from_triplets(n + np, base, gram, false),
+                    FactorKind::Lu,
+                )
+            }
         }
     }
 }
@@ -232,8 +252,8 @@ impl Splitting for GlobalSplitting {
         self.p.h.mul_vec(1.0, &self.r, 0.0, &mut self.work_n2);
         let mut joint_error = 0.0;
         if let Some(j) = &self.p.joints {
-            let lambda = &self.sol[n..];
-            j.g.mul_vec(1.0, lambda, 1.0, &mut self.work_n2);
+            let minus_lambda = &self.sol[n..];
+            j.g.mul_vec(-1.0, minus_lambda, 1.0, &mut self.work_n2);
             let mut res = 0.0f64;
             let mut gv_sq = 0.0f64;
             for (k, b) in j.b.iter().enumerate() {

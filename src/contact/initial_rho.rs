@@ -60,6 +60,9 @@ impl InitialRho {
 
 /// Smallest eigenvalue above `1e-10 * largest`, and the largest, of a symmetric matrix.
 fn spectrum_bounds(a: DMatrix<f64>) -> (f64, f64) {
+    if a.is_empty() {
+        return (f64::NAN, f64::NAN); // no spectrum: the caller falls back to rho = 1
+    }
     let eig = SymmetricEigen::new(a).eigenvalues;
     let max = eig.iter().cloned().fold(0.0f64, f64::max);
     let min = eig
@@ -101,6 +104,9 @@ pub fn initial_rho(rule: InitialRho, p: &Problem) -> Result<f64, Error> {
 /// `1 / sqrt(l_min l_max)` of the Delassus `H^T M^-1 H`, through its non-zero spectrum
 /// `L^-1 H H^T L^-T` (n x n, with `M = L L^T`).
 fn ghadimi_global(g: &GlobalProblem) -> Result<f64, Error> {
+    if g.n() == 0 || g.n_contacts() == 0 {
+        return Ok(1.0);
+    }
     let chol = dense(&g.m)
         .cholesky()
         .ok_or(Error::NotPositiveDefinite { field: "M" })?;

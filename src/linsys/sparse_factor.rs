@@ -213,6 +213,16 @@ impl SparseFactor {
         };
         self.refactorizations += 1;
         self.cache.push((rho, numeric));
+        if self.kind == FactorKind::Lu {
+            // Partial pivoting does not report an exactly singular matrix: a zero pivot
+            // shows up as a non-finite solution, so probe once per factorization.
+            let mut probe = vec![1.0; n];
+            self.solve_in_place(&mut probe);
+            if !probe.iter().all(|v| v.is_finite()) {
+                self.cache.pop();
+                return Err(Error::Singular { field: self.name });
+            }
+        }
         Ok(())
     }
 

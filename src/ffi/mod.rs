@@ -1,0 +1,76 @@
+//! The C API: opaque handles, result codes and the panic boundary. `include/cadmm.h` is
+//! generated from this module by cbindgen (`tests/header.rs` checks it is up to date), so
+//! the documentation here is the header's.
+//!
+//! Conventions every function follows:
+//!
+//! - Functions return a `cadmm_result`: `CADMM_OK` (0) or a `CADMM_ERR_*` code;
+//!   `cadmm_result_message` describes a code and `cadmm_solver_last_error` gives the
+//!   detailed message of a failed solver call. The outcome of a solve is a separate
+//!   `cadmm_status`.
+//! - Every pointer argument is checked: a NULL where one is required returns
+//!   `CADMM_ERR_NULL_POINTER`. Out-parameters are written only on success; a failed
+//!   `_new` leaves `*out` untouched. `_free(NULL)` is a no-op.
+//! - Array lengths are never passed: they follow from the dimensions (`n`, `n_contacts`,
+//!   a matrix's `colptr[ncols]`). An array of length 0 may be NULL.
+//! - Objects take copies of their inputs; no pointer passed in is kept after the call.
+//! - A Rust panic never crosses the boundary: it becomes `CADMM_ERR_PANIC` (NULL or 0 for
+//!   functions returning a pointer or a size).
+//! - Threads: one problem, settings or solver object must not be used from two threads at
+//!   once (this includes the solver functions taking a `const cadmm_solver *`, which record
+//!   the last error). Different objects may be used concurrently, and a problem may be
+//!   shared read-only by functions taking a `const cadmm_problem *` (building solvers from
+//!   it in several threads, for instance).
+#![allow(non_camel_case_types, non_snake_case)]
+// The safety contract of every exported function is the C contract documented above and
+// on each function (pointer validity and array lengths); repeating a `# Safety` section on
+// each would only pad the generated header.
+#![allow(clippy::missing_safety_doc)]
+
+mod arrays;
+pub mod csc;
+mod panic;
+pub mod problem;
+pub mod result;
+pub mod settings;
+pub mod solver;
+pub mod stats;
+
+pub use csc::cadmm_csc;
+pub use problem::{
+    cadmm_problem, cadmm_problem_dims, cadmm_problem_error, cadmm_problem_free,
+    cadmm_problem_new_global, cadmm_problem_new_local, cadmm_problem_read_fclib,
+    cadmm_problem_set_joints, cadmm_problem_write_fclib,
+};
+pub use result::*;
+pub use settings::{
+    cadmm_settings, cadmm_settings_free, cadmm_settings_new, cadmm_settings_set_anderson,
+    cadmm_settings_set_initial_rho, cadmm_settings_set_max_iterations, cadmm_settings_set_s_update,
+    cadmm_settings_set_time_limit, cadmm_settings_set_tolerance, cadmm_settings_set_trace,
+    cadmm_settings_set_variant,
+};
+pub use solver::{
+    cadmm_solver, cadmm_solver_free, cadmm_solver_get_solution, cadmm_solver_get_stats,
+    cadmm_solver_get_trace, cadmm_solver_last_error, cadmm_solver_new, cadmm_solver_solve,
+    cadmm_solver_trace_len, cadmm_solver_update, cadmm_solver_warm_start,
+};
+pub use stats::{cadmm_stats, cadmm_trace_point};
+
+use std::ffi::c_char;
+
+/// The library version, e.g. "0.1.0" (the Cargo package version, equal to
+/// `CADMM_VERSION_STRING` of the header the program was compiled with). A static string;
+/// never free it.
+#[no_mangle]
+pub extern "C" fn cadmm_version() -> *const c_char {
+    panic::guard_value(std::ptr::null(), || {
+        concat!(env!("CARGO_PKG_VERSION"), "\0").as_ptr().cast()
+    })
+}
+
+/// A static, NUL-terminated English description of a result code; "unknown result code"
+/// for a value that is not a `CADMM_OK`/`CADMM_ERR_*` code. Never free it.
+#[no_mangle]
+pub extern "C" fn cadmm_result_message(code: cadmm_result) -> *const c_char {
+    panic::guard_value(std::ptr::null(), || result::message(code).as_ptr())
+}

@@ -1,0 +1,280 @@
+//! `cadmm_problem`: a validated global or local frictional contact problem.
+
+use super::arrays::{check_ptr, contact_len, input, path};
+use super::csc::{cadmm_csc, read_csc};
+use super::panic::{guard, guard_value};
+use super::result::{cadmm_result, Failure, FfiResult, CADMM_ERR_DIMENSION, CADMM_ERR_UNSUPPORTED};
+use crate::measure::problem_error;
+use crate::problem::{GlobalProblem, LocalProblem, Problem};
+use std::ffi::c_char;
+
+/// A frictional contact problem, global (M, H, f, w, mu, optional joints G, b) or local
+/// (W, q, mu). Opaque; created by `cadmm_problem_new_global`, `cadmm_problem_new_local` or
+/// `cadmm_problem_read_fclib`, released by `cadmm_problem_free`. A solver keeps its own copy,
+/// so a problem may be freed or reused as soon as the call that took it returns.
+pub struct cadmm_problem {
+    pub(crate) inner: Problem,
+}
+
+impl cadmm_problem {
+    /// The problem this handle holds (Rust side only, e.g. for tests).
+    pub fn problem(&self) -> &Problem {
+        &self.inner
+    }
+}
+
+/// Borrows a problem handle.
+///
+/// # Safety
+/// `p`, if non-NULL, must come from this library and not be freed.
+pub(crate) unsafe fn problem_ref<'a>(
+    what: &str,
+    p: *const cadmm_problem,
+) -> FfiResult<&'a Problem> {
+    check_ptr(what, p)?;
+    // SAFETY: a live handle by contract.
+    Ok(unsafe { &(*p).inner })
+}
+
+/// Boxes a problem into `*out` (already checked non-NULL).
+unsafe fn put(out: *mut *mut cadmm_problem, inner: Problem) {
+    let handle = Box::into_raw(Box::new(cadmm_problem { inner }));
+    // SAFETY: checked non-NULL and aligned by the caller.
+    unsafe { out.write(handle) };
+}
+
+/// Builds a global problem: `M v = H r + f`, `u = H^T v + w`, with `n` velocities and
+/// `n_contacts` contacts.
+///
+/// `M` is `n x n` (symmetric positive definite, both triangles; definiteness is checked by
+/// `cadmm_solver_new`), `H` is `n x 3 n_contacts`, `f` has `n` entries, `w` has
+/// `3 n_contacts`, `mu` has `n_contacts` (non-negative). Every input is copied. On success
+/// `*out` receives a new problem to release with `cadmm_problem_free`; on failure `*out` is
+/// left untouched. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION`,
+/// `CADMM_ERR_INVALID_CSC`, `CADMM_ERR_INVALID_VALUE`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_new_global(
+    n: usize,
+    n_contacts: usize,
+    M: *const cadmm_csc,
+    H: *const cadmm_csc,
+    f: *const f64,
+    w: *const f64,
+    mu: *const f64,
+    out: *mut *mut cadmm_problem,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("out", out)?;
+        let l = contact_len(n_contacts)?;
+        // SAFETY (all reads): lengths from the dimensions, as documented above.
+        let m = unsafe { read_csc("M", M)? };
+        if m.nrows() != n {
+            return Err(Failure::new(
+                CADMM_ERR_DIMENSION,
+                format!("M has {} rows, expected n = {n}", m.nrows()),
+            ));
+        }
+        let h = unsafe { read_csc("H", H)? };
+        let f = unsafe { input("f", f, n)? }.to_vec();
+        let w = unsafe { input("w", w, l)? }.to_vec();
+        let mu = unsafe { input("mu", mu, n_contacts)? }.to_vec();
+        let p = GlobalProblem::new(m, h, f, w, mu)?;
+        unsafe { put(out, Problem::Global(p)) };
+        Ok(())
+    })
+}
+
+/// Adds bilateral (joint) constraints `G^T v + b = 0` to a global problem, replacing any
+/// earlier ones: `M v = H r + G lambda + f`.
+///
+/// `G` is `n x p`, `b` has `p` entries (`p` = `G->ncols`). A `G` with no column removes the
+/// joints. On failure the problem is unchanged. Errors: `CADMM_ERR_NULL_POINTER`,
+/// `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_CSC`, `CADMM_ERR_INVALID_VALUE`,
+/// `CADMM_ERR_UNSUPPORTED` (a local problem).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_set_joints(
+    p: *mut cadmm_problem,
+    G: *const cadmm_csc,
+    b: *const f64,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("p", p.cast_const())?;
+        // SAFETY: a live handle by contract, used by this thread only.
+        let problem = unsafe { &mut (*p).inner };
+        let Problem::Global(global) = problem else {
+            return Err(Failure::new(
+                CADMM_ERR_UNSUPPORTED,
+                "joints apply to global problems only",
+            ));
+        };
+        // SAFETY: lengths from the dimensions, as documented above.
+        let g = unsafe { read_csc("G", G)? };
+        let b = unsafe { input("b", b, g.ncols())? }.to_vec();
+        *global = global.clone().with_joints(g, b)?;
+        Ok(())
+    })
+}
+
+/// Builds a local problem `u = W r + q` with `n_contacts` contacts.
+///
+/// `W` (the Delassus matrix) is `3 n_contacts x 3 n_contacts`, both triangles, possibly
+/// non-symmetric; `q` has `3 n_contacts` entries; `mu` has `n_contacts` (non-negative).
+/// Every input is copied. On success `*out` receives a new problem to release with
+/// `cadmm_problem_free`; on failure `*out` is left untouched. Errors:
+/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_CSC`,
+/// `CADMM_ERR_INVALID_VALUE`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_new_local(
+    n_contacts: usize,
+    W: *const cadmm_csc,
+    q: *const f64,
+    mu: *const f64,
+    out: *mut *mut cadmm_problem,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("out", out)?;
+        let l = contact_len(n_contacts)?;
+        // SAFETY (all reads): lengths from the dimensions, as documented above.
+        let w = unsafe { read_csc("W", W)? };
+        let q = unsafe { input("q", q, l)? }.to_vec();
+        let mu = unsafe { input("mu", mu, n_contacts)? }.to_vec();
+        let p = LocalProblem::new(w, q, mu)?;
+        unsafe { put(out, Problem::Local(p)) };
+        Ok(())
+    })
+}
+
+/// Reads an FCLib HDF5 file (`fclib_global`, with its joints if any, or `fclib_local`).
+///
+/// On success `*out` receives a new problem; on failure `*out` is left untouched. Errors:
+/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_IO` (missing or unreadable file), the validation
+/// errors of `cadmm_problem_new_global`/`_new_local`, and `CADMM_ERR_UNSUPPORTED` when the
+/// library was built without FCLib support (Cargo feature `fclib`).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_read_fclib(
+    path: *const c_char,
+    out: *mut *mut cadmm_problem,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("out", out)?;
+        // SAFETY: a NUL-terminated string by contract.
+        let path = unsafe { self::path("path", path)? };
+        #[cfg(feature = "fclib")]
+        let read = crate::fclib::read(path).map_err(Failure::from);
+        #[cfg(not(feature = "fclib"))]
+        let read: FfiResult<Problem> = Err(no_fclib(path));
+        let problem = read?;
+        // SAFETY: `out` checked non-NULL and aligned.
+        unsafe { put(out, problem) };
+        Ok(())
+    })
+}
+
+/// Writes a problem to an FCLib HDF5 file (created or overwritten).
+///
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_IO`, and `CADMM_ERR_UNSUPPORTED` when the
+/// library was built without FCLib support (Cargo feature `fclib`).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_write_fclib(
+    p: *const cadmm_problem,
+    path: *const c_char,
+) -> cadmm_result {
+    guard(|| {
+        // SAFETY: a live handle and a NUL-terminated string by contract.
+        let problem = unsafe { problem_ref("p", p)? };
+        let path = unsafe { self::path("path", path)? };
+        #[cfg(feature = "fclib")]
+        let written = crate::fclib::write_problem(path, problem).map_err(Failure::from);
+        #[cfg(not(feature = "fclib"))]
+        let written = {
+            let _ = problem;
+            Err(no_fclib(path))
+        };
+        written
+    })
+}
+
+#[cfg(not(feature = "fclib"))]
+fn no_fclib(path: &std::path::Path) -> Failure {
+    Failure::new(
+        CADMM_ERR_UNSUPPORTED,
+        format!(
+            "{}: this build of cadmm has no FCLib support (Cargo feature fclib)",
+            path.display()
+        ),
+    )
+}
+
+/// Computes the error measure of a candidate solution (the one `cadmm_solver_solve` stops
+/// on; ALGORITHMS.md section 7), from any source.
+///
+/// `r` has `3 n_contacts` entries. For a global problem `v` (`n` entries) is required and
+/// `u` is recomputed as `H^T v + w`; for a local problem `v` is ignored (may be NULL) and
+/// `u` is recomputed as `W r + q`. `u` is accepted for symmetry with
+/// `cadmm_solver_get_solution` and never read (may be NULL). Joint multipliers are not
+/// passed here: for a global problem with joints the equation residual omits `G lambda`.
+/// A non-finite `r` or `v` gives an infinite error (not a failure). `*error` is written on
+/// success only. Errors: `CADMM_ERR_NULL_POINTER`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_error(
+    p: *const cadmm_problem,
+    r: *const f64,
+    u: *const f64,
+    v: *const f64,
+    error: *mut f64,
+) -> cadmm_result {
+    let _ = u;
+    guard(|| {
+        // SAFETY: a live handle by contract.
+        let problem = unsafe { problem_ref("p", p)? };
+        check_ptr("error", error.cast_const())?;
+        let l = contact_len(problem.n_contacts())?;
+        // SAFETY (reads): lengths from the problem, as documented above.
+        let r = unsafe { input("r", r, l)? };
+        let v = match problem {
+            Problem::Global(g) => unsafe { input("v", v, g.n())? },
+            Problem::Local(_) => &[],
+        };
+        let e = problem_error(problem, r, v, &[]);
+        // SAFETY: checked non-NULL and aligned.
+        unsafe { error.write(e) };
+        Ok(())
+    })
+}
+
+/// Reports the sizes of a problem: `*n_velocities` (`n`; 0 for a local problem),
+/// `*n_contacts`, and `*is_global`. All three pointers are required; they are written on
+/// success only. Errors: `CADMM_ERR_NULL_POINTER`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_dims(
+    p: *const cadmm_problem,
+    n_velocities: *mut usize,
+    n_contacts: *mut usize,
+    is_global: *mut bool,
+) -> cadmm_result {
+    guard(|| {
+        // SAFETY: a live handle by contract.
+        let problem = unsafe { problem_ref("p", p)? };
+        check_ptr("n_velocities", n_velocities.cast_const())?;
+        check_ptr("n_contacts", n_contacts.cast_const())?;
+        check_ptr("is_global", is_global.cast_const())?;
+        // SAFETY: checked non-NULL and aligned.
+        unsafe {
+            n_velocities.write(problem.n_velocities());
+            n_contacts.write(problem.n_contacts());
+            is_global.write(matches!(problem, Problem::Global(_)));
+        }
+        Ok(())
+    })
+}
+
+/// Releases a problem. NULL is a no-op. The handle must not be used afterwards.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_free(p: *mut cadmm_problem) {
+    guard_value((), || {
+        if !p.is_null() {
+            // SAFETY: created by Box::into_raw in this module, freed once by contract.
+            drop(unsafe { Box::from_raw(p) });
+        }
+    })
+}

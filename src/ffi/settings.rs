@@ -1,0 +1,235 @@
+//! `cadmm_settings`: solver settings, each value validated when it is set.
+
+use super::arrays::{check_ptr, utf8};
+use super::panic::{guard, guard_value};
+use super::result::{cadmm_result, Failure, FfiResult, CADMM_ERR_INVALID_SETTING};
+use crate::admm::SUpdate;
+use crate::contact::InitialRho;
+use crate::settings::{Settings, VariantChoice};
+use std::ffi::c_char;
+
+/// Solver settings. Opaque; created by `cadmm_settings_new` with the defaults (tolerance
+/// 1e-8, 100000 iterations, no time limit, variant "auto", the variant's initial rho rule
+/// and Anderson memory, internal s-update, no trace), released by `cadmm_settings_free`.
+/// A solver keeps its own copy, so settings may be changed or freed once the solver exists.
+pub struct cadmm_settings {
+    pub(crate) inner: Settings,
+}
+
+impl cadmm_settings {
+    /// The settings this handle holds (Rust side only, e.g. for tests).
+    pub fn settings(&self) -> &Settings {
+        &self.inner
+    }
+}
+
+/// Applies `change` to a copy of the settings and keeps it only if it validates, so a
+/// rejected value leaves the settings unchanged.
+///
+/// # Safety
+/// `s`, if non-NULL, must be a live handle used by this thread only.
+unsafe fn change(
+    s: *mut cadmm_settings,
+    change: impl FnOnce(&mut Settings) -> FfiResult,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("s", s.cast_const())?;
+        // SAFETY: a live handle by contract, used by this thread only.
+        let settings = unsafe { &mut (*s).inner };
+        let mut copy = settings.clone();
+        change(&mut copy)?;
+        copy.validate()?;
+        *settings = copy;
+        Ok(())
+    })
+}
+
+/// Creates settings with the defaults. On success `*out` receives them (release with
+/// `cadmm_settings_free`); on failure `*out` is left untouched. Errors:
+/// `CADMM_ERR_NULL_POINTER`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_new(out: *mut *mut cadmm_settings) -> cadmm_result {
+    guard(|| {
+        check_ptr("out", out.cast_const())?;
+        let handle = Box::into_raw(Box::new(cadmm_settings {
+            inner: Settings::default(),
+        }));
+        // SAFETY: checked non-NULL and aligned.
+        unsafe { out.write(handle) };
+        Ok(())
+    })
+}
+
+/// Chooses the ADMM variant: "auto" (the default) or one of "cp-N", "cp-R", "cp-RR",
+/// "vp-N-He", "vp-R-He", "vp-RR-He", "vp-N-Wohlberg", "vp-R-Wohlberg", "vp-RR-Wohlberg",
+/// "vp-N-Spectral", "vp-R-Spectral", "vp-RR-Spectral". Errors: `CADMM_ERR_NULL_POINTER`,
+/// `CADMM_ERR_INVALID_SETTING` (unknown name; the settings are unchanged).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_variant(
+    s: *mut cadmm_settings,
+    name: *const c_char,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            let name = utf8("name", name, CADMM_ERR_INVALID_SETTING)?;
+            set.variant = VariantChoice::from_name(name)?;
+            Ok(())
+        })
+    }
+}
+
+/// Chooses how the first penalty rho is picked: "normal" (rho = 1), "acary", "ghadimi",
+/// "dicairano", or "given" with `rho` (positive, finite; ignored by the other rules).
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (the settings are
+/// unchanged).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_initial_rho(
+    s: *mut cadmm_settings,
+    rule: *const c_char,
+    rho: f64,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            let rule = utf8("rule", rule, CADMM_ERR_INVALID_SETTING)?;
+            set.initial_rho = Some(InitialRho::from_name(rule, rho)?);
+            Ok(())
+        })
+    }
+}
+
+/// Sets the tolerance on the error measure (positive, finite; default 1e-8). Errors:
+/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_tolerance(
+    s: *mut cadmm_settings,
+    tol: f64,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            set.tolerance = tol;
+            Ok(())
+        })
+    }
+}
+
+/// Sets the iteration limit (at least 1; default 100000). Errors: `CADMM_ERR_NULL_POINTER`,
+/// `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_max_iterations(
+    s: *mut cadmm_settings,
+    n: u32,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            set.max_iterations = n as usize;
+            Ok(())
+        })
+    }
+}
+
+/// Sets the wall-clock limit of one solve in seconds (positive; `INFINITY`, the default,
+/// for none). Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (the settings
+/// are unchanged).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_time_limit(
+    s: *mut cadmm_settings,
+    seconds: f64,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            set.time_limit = seconds;
+            Ok(())
+        })
+    }
+}
+
+/// Sets the Anderson acceleration memory (0 switches it off; at most 64). Without this
+/// call the variant decides ("auto" uses 5, named variants 0). Errors:
+/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_anderson(
+    s: *mut cadmm_settings,
+    memory: u32,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            set.anderson = Some(memory as usize);
+            Ok(())
+        })
+    }
+}
+
+/// Chooses when the De Saxce parameter s is updated: "internal" (every iteration, the
+/// default) or "external" (after each inner convex solve). Errors:
+/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_s_update(
+    s: *mut cadmm_settings,
+    mode: *const c_char,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            set.s_update = match utf8("mode", mode, CADMM_ERR_INVALID_SETTING)? {
+                "internal" => SUpdate::Internal,
+                "external" => SUpdate::External,
+                other => {
+                    return Err(Failure::new(
+                        CADMM_ERR_INVALID_SETTING,
+                        format!(
+                            "invalid setting s_update: unknown mode '{other}' \
+                             (expected internal or external)"
+                        ),
+                    ))
+                }
+            };
+            Ok(())
+        })
+    }
+}
+
+/// Switches the per-iteration trace on or off (default off); read it with
+/// `cadmm_solver_trace_len` and `cadmm_solver_get_trace`. Errors: `CADMM_ERR_NULL_POINTER`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_trace(
+    s: *mut cadmm_settings,
+    on: bool,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            set.trace = on;
+            Ok(())
+        })
+    }
+}
+
+/// Releases settings. NULL is a no-op. The handle must not be used afterwards.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_free(s: *mut cadmm_settings) {
+    guard_value((), || {
+        if !s.is_null() {
+            // SAFETY: created by Box::into_raw in this module, freed once by contract.
+            drop(unsafe { Box::from_raw(s) });
+        }
+    })
+}
+
+/// Borrows a settings handle.
+///
+/// # Safety
+/// `s`, if non-NULL, must come from this library and not be freed.
+pub(crate) unsafe fn settings_ref<'a>(
+    what: &str,
+    s: *const cadmm_settings,
+) -> FfiResult<&'a Settings> {
+    check_ptr(what, s)?;
+    // SAFETY: a live handle by contract.
+    Ok(unsafe { &(*s).inner })
+}

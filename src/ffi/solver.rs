@@ -1,0 +1,451 @@
+//! `cadmm_solver`: a solver with its factorizations, last iterate and last error message.
+
+use super::arrays::{check_output, check_ptr, contact_len, input, write_output};
+use super::panic::{catch, guard, guard_value};
+use super::problem::{cadmm_problem, problem_ref};
+use super::result::{
+    cadmm_result, cadmm_status, status_code, Failure, FfiResult, CADMM_ERR_INVALID_VALUE,
+    CADMM_ERR_PANIC,
+};
+use super::settings::{cadmm_settings, settings_ref};
+use super::stats::{cadmm_stats, cadmm_trace_point, write_stats, STATS_MIN_SIZE};
+use crate::problem::Problem;
+use crate::solver::Solver;
+use std::cell::RefCell;
+use std::ffi::{c_char, CString};
+
+/// Why a solver refuses to solve until something is done about it.
+#[derive(Debug)]
+enum Broken {
+    /// A panic was caught inside a call that was changing the solver: its state is unknown.
+    /// Only `cadmm_solver_last_error` and `cadmm_solver_free` still work.
+    Panicked,
+    /// The last `cadmm_solver_update` failed, possibly halfway through replacing the
+    /// matrices; a successful update repairs the solver.
+    UpdateFailed(Failure),
+}
+
+/// A solver for one problem and its successors with the same sparsity pattern. Opaque;
+/// created by `cadmm_solver_new`, released by `cadmm_solver_free`.
+pub struct cadmm_solver {
+    solver: Solver,
+    n_velocities: usize,
+    n_contacts: usize,
+    is_global: bool,
+    broken: Option<Broken>,
+    /// Message of the last failed call; interior mutability because const calls fail too
+    /// (the thread rule makes a solver single-threaded, const calls included).
+    last_error: RefCell<CString>,
+}
+
+impl cadmm_solver {
+    fn record(&self, message: &str) {
+        let text = CString::new(message.replace('\0', " ")).unwrap_or_default();
+        *self.last_error.borrow_mut() = text;
+    }
+
+    fn check_usable(&self, for_solving: bool) -> FfiResult {
+        match &self.broken {
+            None => Ok(()),
+            Some(Broken::Panicked) => Err(Failure::new(
+                CADMM_ERR_PANIC,
+                "the solver is unusable after an internal error (panic); free it",
+            )),
+            Some(Broken::UpdateFailed(f)) if for_solving => Err(Failure::new(
+                f.code,
+                format!(
+                    "the last cadmm_solver_update failed ({}); update the solver with a valid \
+                     problem before solving",
+                    f.message
+                ),
+            )),
+            Some(Broken::UpdateFailed(_)) => Ok(()),
+        }
+    }
+}
+
+/// Runs a call that changes a solver: NULL check, panic boundary, error message.
+///
+/// # Safety
+/// `sv`, if non-NULL, must be a live handle used by this thread only.
+unsafe fn with_solver_mut(
+    sv: *mut cadmm_solver,
+    body: impl FnOnce(&mut cadmm_solver) -> FfiResult,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("sv", sv.cast_const())?;
+        // SAFETY: a live handle by contract, used by this thread only.
+        let outcome = catch(|| body(unsafe { &mut *sv }));
+        // SAFETY: as above; the borrow handed to `body` has ended.
+        let sv = unsafe { &mut *sv };
+        match outcome {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(failure)) => {
+                sv.record(&failure.message);
+                Err(failure)
+            }
+            Err(message) => {
+                sv.record(&message);
+                sv.broken = Some(Broken::Panicked);
+                Err(Failure::new(CADMM_ERR_PANIC, message))
+            }
+        }
+    })
+}
+
+/// Runs a call that only reads a solver (it may still record the last error).
+///
+/// # Safety
+/// `sv`, if non-NULL, must be a live handle not used by another thread meanwhile.
+unsafe fn with_solver(
+    sv: *const cadmm_solver,
+    body: impl FnOnce(&cadmm_solver) -> FfiResult,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("sv", sv)?;
+        // SAFETY: a live handle by contract.
+        let sv = unsafe { &*sv };
+        let outcome = catch(|| sv.check_usable(false).and_then(|()| body(sv)));
+        match outcome {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(failure)) => {
+                sv.record(&failure.message);
+                Err(failure)
+            }
+            Err(message) => {
+                sv.record(&message);
+                Err(Failure::new(CADMM_ERR_PANIC, message))
+            }
+        }
+    })
+}
+
+/// Creates a solver: validates the settings, picks the first rho and factorizes (symbolic
+/// analysis and first numeric factorization). The problem and the settings are copied;
+/// both may be freed or changed afterwards.
+///
+/// On success `*out` receives the solver (release with `cadmm_solver_free`); on failure
+/// `*out` is left untouched. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING`,
+/// `CADMM_ERR_NOT_POSITIVE_DEFINITE` (M, or W + rho I for a symmetric W),
+/// `CADMM_ERR_SINGULAR` (W + rho I for a non-symmetric W).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_new(
+    p: *const cadmm_problem,
+    s: *const cadmm_settings,
+    out: *mut *mut cadmm_solver,
+) -> cadmm_result {
+    guard(|| {
+        // SAFETY: live handles by contract.
+        let problem = unsafe { problem_ref("p", p)? };
+        let settings = unsafe { settings_ref("s", s)? };
+        check_ptr("out", out.cast_const())?;
+        let solver = Solver::new(problem.clone(), settings.clone())?;
+        let handle = Box::into_raw(Box::new(cadmm_solver {
+            solver,
+            n_velocities: problem.n_velocities(),
+            n_contacts: problem.n_contacts(),
+            is_global: matches!(problem, Problem::Global(_)),
+            broken: None,
+            last_error: RefCell::new(CString::default()),
+        }));
+        // SAFETY: checked non-NULL and aligned.
+        unsafe { out.write(handle) };
+        Ok(())
+    })
+}
+
+/// Replaces the solver's problem by `p`, the next time step of the same scene: same form,
+/// sizes and sparsity patterns, new values (numeric refactorization only). `p` is copied.
+/// The next solve starts cold unless `cadmm_solver_warm_start` is called after this.
+///
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION` (other sizes),
+/// `CADMM_ERR_INVALID_CSC` (other pattern), `CADMM_ERR_UNSUPPORTED` (the other form with
+/// the same sizes), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a failure the solver
+/// refuses `cadmm_solver_warm_start` and `cadmm_solver_solve` (with the same code) until an
+/// update succeeds; the solution and statistics of the last solve stay readable.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_update(
+    sv: *mut cadmm_solver,
+    p: *const cadmm_problem,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_solver| -> FfiResult {
+        sv.check_usable(false)?;
+        // SAFETY: a live handle by contract.
+        let problem = unsafe { problem_ref("p", p)? };
+        match sv.solver.update(problem.clone()) {
+            Ok(()) => {
+                sv.broken = None;
+                Ok(())
+            }
+            Err(e) => {
+                let failure = Failure::from(e);
+                sv.broken = Some(Broken::UpdateFailed(failure.clone()));
+                Err(failure)
+            }
+        }
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver_mut(sv, body) }
+}
+
+/// Starts the next solve from impulses `r` (`3 n_contacts` entries) and, for a global
+/// problem, velocities `v` (`n` entries, may be NULL: then only `r` is used; ignored for a
+/// local problem). Typically the previous time step's solution.
+///
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a non-finite entry), and
+/// the code of a failed `cadmm_solver_update`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_warm_start(
+    sv: *mut cadmm_solver,
+    r: *const f64,
+    v: *const f64,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_solver| -> FfiResult {
+        sv.check_usable(true)?;
+        let l = contact_len(sv.n_contacts)?;
+        // SAFETY (reads): lengths from the problem, as documented above.
+        let r = unsafe { input("r", r, l)? };
+        let v = if sv.is_global && !v.is_null() {
+            Some(unsafe { input("v", v, sv.n_velocities)? })
+        } else {
+            None
+        };
+        sv.solver.warm_start(r, v)?;
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver_mut(sv, body) }
+}
+
+/// Runs ADMM until the error measure reaches the tolerance or a limit is hit, and writes
+/// how it ended to `*status` (`CADMM_STATUS_*`). Hitting a limit is a status, not a
+/// failure: the call returns `CADMM_OK` and the solution is the last finite iterate.
+///
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_NOT_POSITIVE_DEFINITE`/`CADMM_ERR_SINGULAR`
+/// (a refactorization for a new rho failed), and the code of a failed
+/// `cadmm_solver_update`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_solve(
+    sv: *mut cadmm_solver,
+    status: *mut cadmm_status,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_solver| -> FfiResult {
+        sv.check_usable(true)?;
+        check_ptr("status", status.cast_const())?;
+        let s = sv.solver.solve()?;
+        // SAFETY: checked non-NULL and aligned.
+        unsafe { status.write(status_code(s)) };
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver_mut(sv, body) }
+}
+
+/// Copies the current solution (the last solve's, or zeros before any solve): impulses
+/// `r` and local velocities `u` (`3 n_contacts` entries each) and, for a global problem,
+/// velocities `v` (`n` entries; ignored for a local problem). Any of the three may be NULL
+/// to skip it. Errors: `CADMM_ERR_NULL_POINTER` (`sv`).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_get_solution(
+    sv: *const cadmm_solver,
+    r: *mut f64,
+    u: *mut f64,
+    v: *mut f64,
+) -> cadmm_result {
+    let body = |sv: &cadmm_solver| -> FfiResult {
+        let l = contact_len(sv.n_contacts)?;
+        let nv = if sv.is_global { sv.n_velocities } else { 0 };
+        let want_v = sv.is_global && !v.is_null();
+        if !r.is_null() {
+            check_output("r", r, l)?;
+        }
+        if !u.is_null() {
+            check_output("u", u, l)?;
+        }
+        if want_v {
+            check_output("v", v, nv)?;
+        }
+        let solution = sv.solver.solution();
+        // SAFETY: checked, lengths from the problem as documented above.
+        unsafe {
+            if !r.is_null() {
+                write_output(r, &solution.r);
+            }
+            if !u.is_null() {
+                write_output(u, &solution.u);
+            }
+            if want_v {
+                write_output(v, &solution.v);
+            }
+        }
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver(sv, body) }
+}
+
+/// Fills `*out` with the statistics of the last solve; set `out->struct_size =
+/// sizeof(cadmm_stats)` first (see `cadmm_stats`). Errors: `CADMM_ERR_NULL_POINTER`,
+/// `CADMM_ERR_INVALID_VALUE` (`struct_size` too small; nothing is written).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_get_stats(
+    sv: *const cadmm_solver,
+    out: *mut cadmm_stats,
+) -> cadmm_result {
+    let body = |sv: &cadmm_solver| -> FfiResult {
+        check_ptr("out", out.cast_const())?;
+        // SAFETY: non-NULL and aligned; `struct_size` is the first field, present in
+        // every version of the struct.
+        let size = out.cast::<usize>().read();
+        if size < STATS_MIN_SIZE {
+            return Err(Failure::new(
+                CADMM_ERR_INVALID_VALUE,
+                format!(
+                    "out->struct_size = {size} is smaller than the {STATS_MIN_SIZE} bytes \
+                     required (set it to sizeof(cadmm_stats))"
+                ),
+            ));
+        }
+        let stats = cadmm_stats::from(sv.solver.stats());
+        // SAFETY: the caller's struct holds `size` bytes by contract.
+        write_stats(out, size, &stats);
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver(sv, body) }
+}
+
+/// Number of points in the trace of the last solve (0 unless the trace was switched on
+/// with `cadmm_settings_set_trace`; 0 for a NULL or unusable solver).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_trace_len(sv: *const cadmm_solver) -> usize {
+    guard_value(0, || {
+        if sv.is_null() {
+            return 0;
+        }
+        // SAFETY: a live handle by contract.
+        let sv = unsafe { &*sv };
+        if sv.check_usable(false).is_err() {
+            return 0;
+        }
+        sv.solver.trace().len()
+    })
+}
+
+/// Copies point `i` (0-based, below `cadmm_solver_trace_len`) of the last solve's trace to
+/// `*out`. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (`i` out of range).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_get_trace(
+    sv: *const cadmm_solver,
+    i: usize,
+    out: *mut cadmm_trace_point,
+) -> cadmm_result {
+    let body = |sv: &cadmm_solver| -> FfiResult {
+        check_ptr("out", out.cast_const())?;
+        let trace = sv.solver.trace();
+        let point = trace.get(i).ok_or_else(|| {
+            Failure::new(
+                CADMM_ERR_INVALID_VALUE,
+                format!("trace index {i} is out of range (length {})", trace.len()),
+            )
+        })?;
+        // SAFETY: checked non-NULL and aligned.
+        out.write(cadmm_trace_point::from(point));
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver(sv, body) }
+}
+
+/// The message of the last failed call on this solver ("" if none has failed), naming the
+/// argument and index at fault. The string belongs to the solver and stays valid until the
+/// next call on it; copy it to keep it. A NULL `sv` gives a static message.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_last_error(sv: *const cadmm_solver) -> *const c_char {
+    guard_value(std::ptr::null(), || {
+        if sv.is_null() {
+            return c"cadmm_solver_last_error: the solver pointer is NULL".as_ptr();
+        }
+        // SAFETY: a live handle by contract; the CString's buffer lives until replaced by
+        // a later failing call or freed with the solver.
+        unsafe { (*sv).last_error.borrow().as_ptr() }
+    })
+}
+
+/// Releases a solver. NULL is a no-op. The handle, and any string it returned, must not be
+/// used afterwards.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_free(sv: *mut cadmm_solver) {
+    guard_value((), || {
+        if !sv.is_null() {
+            // SAFETY: created by Box::into_raw in this module, freed once by contract.
+            drop(unsafe { Box::from_raw(sv) });
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ffi::{
+        cadmm_csc, cadmm_problem_free, cadmm_problem_new_local, cadmm_settings_free,
+        cadmm_settings_new, cadmm_solver_get_solution, CADMM_OK,
+    };
+    use std::ffi::CStr;
+    use std::ptr::null_mut;
+
+    // No input of the library is known to panic inside a call that changes a solver, so the
+    // poisoning is exercised by running a panicking body through the same helper.
+    #[test]
+    fn a_panic_poisons_the_solver() {
+        let (colptr, rowind, values) = ([0i64, 1, 2, 3], [0i64, 1, 2], [1.0; 3]);
+        let w = cadmm_csc {
+            nrows: 3,
+            ncols: 3,
+            colptr: colptr.as_ptr(),
+            rowind: rowind.as_ptr(),
+            values: values.as_ptr(),
+        };
+        let (q, mu) = ([-1.0, 0.0, 0.0], [0.5]);
+        unsafe {
+            let (mut p, mut s, mut sv) = (null_mut(), null_mut(), null_mut());
+            assert_eq!(
+                cadmm_problem_new_local(1, &w, q.as_ptr(), mu.as_ptr(), &mut p),
+                CADMM_OK
+            );
+            assert_eq!(cadmm_settings_new(&mut s), CADMM_OK);
+            assert_eq!(cadmm_solver_new(p, s, &mut sv), CADMM_OK);
+            let rc = with_solver_mut(sv, |_| panic!("injected"));
+            assert_eq!(rc, CADMM_ERR_PANIC);
+            let text = CStr::from_ptr(cadmm_solver_last_error(sv))
+                .to_str()
+                .unwrap();
+            assert!(text.contains("injected"), "{text}");
+            let mut status = -1;
+            assert_eq!(cadmm_solver_solve(sv, &mut status), CADMM_ERR_PANIC);
+            assert_eq!(status, -1);
+            assert_eq!(
+                cadmm_solver_update(sv, p),
+                CADMM_ERR_PANIC,
+                "an update does not repair a panicked solver"
+            );
+            assert_eq!(
+                cadmm_solver_get_solution(sv, null_mut(), null_mut(), null_mut()),
+                CADMM_ERR_PANIC
+            );
+            assert_eq!(cadmm_solver_trace_len(sv), 0);
+            // A panic in a read-only call is reported but does not poison.
+            let (mut s2, mut sv2) = (null_mut(), null_mut());
+            assert_eq!(cadmm_settings_new(&mut s2), CADMM_OK);
+            assert_eq!(cadmm_solver_new(p, s2, &mut sv2), CADMM_OK);
+            assert_eq!(with_solver(sv2, |_| panic!("read")), CADMM_ERR_PANIC);
+            let mut status = -1;
+            assert_eq!(cadmm_solver_solve(sv2, &mut status), CADMM_OK);
+            cadmm_solver_free(sv2);
+            cadmm_settings_free(s2);
+            cadmm_solver_free(sv);
+            cadmm_settings_free(s);
+            cadmm_problem_free(p);
+        }
+    }
+}

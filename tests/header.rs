@@ -1,0 +1,57 @@
+//! `include/cadmm.h` is generated from `src/ffi/` and committed; this test fails when it is
+//! stale. `CADMM_BLESS=1 cargo test --test header` rewrites it instead.
+
+use std::path::Path;
+
+/// The header as cbindgen generates it now, with the version macros from Cargo.toml.
+fn generate() -> String {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut config = cbindgen::Config::from_file(root.join("cbindgen.toml"))
+        .expect("cbindgen.toml is readable and valid");
+    config.after_includes = Some(format!(
+        "#define CADMM_VERSION_MAJOR {}\n\
+         #define CADMM_VERSION_MINOR {}\n\
+         #define CADMM_VERSION_PATCH {}\n\
+         #define CADMM_VERSION_STRING \"{}\"",
+        env!("CARGO_PKG_VERSION_MAJOR"),
+        env!("CARGO_PKG_VERSION_MINOR"),
+        env!("CARGO_PKG_VERSION_PATCH"),
+        env!("CARGO_PKG_VERSION"),
+    ));
+    let bindings = cbindgen::Builder::new()
+        .with_config(config)
+        .with_src(root.join("src/ffi/mod.rs"))
+        .generate()
+        .expect("cbindgen generates the header");
+    let mut out = Vec::new();
+    bindings.write(&mut out);
+    String::from_utf8(out).expect("the header is UTF-8")
+}
+
+#[test]
+fn header_is_up_to_date() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("include/cadmm.h");
+    let generated = generate();
+    if std::env::var("CADMM_BLESS").as_deref() == Ok("1") {
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(&path, &generated).unwrap();
+        return;
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        committed == generated,
+        "include/cadmm.h is stale: regenerate it with `CADMM_BLESS=1 cargo test --test header`"
+    );
+}
+
+#[test]
+fn header_version_matches_the_library() {
+    let generated = generate();
+    let line = format!(
+        "#define CADMM_VERSION_STRING \"{}\"",
+        env!("CARGO_PKG_VERSION")
+    );
+    assert!(generated.contains(&line));
+    let v = unsafe { std::ffi::CStr::from_ptr(cadmm::ffi::cadmm_version()) };
+    assert_eq!(v.to_str().unwrap(), env!("CARGO_PKG_VERSION"));
+}

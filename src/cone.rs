@@ -5,7 +5,8 @@
 #[inline]
 pub fn project_cone(z: [f64; 3], mu: f64) -> [f64; 3] {
     let t = (z[1] * z[1] + z[2] * z[2]).sqrt();
-    if t <= mu * z[0] {
+    // z_N >= 0 matters at mu = 0, where t = 0 <= 0 * z_N holds for a negative z_N too.
+    if t <= mu * z[0] && z[0] >= 0.0 {
         return z; // inside K
     }
     if mu * t + z[0] <= 0.0 {

@@ -18,7 +18,7 @@ mod variant;
 pub use anderson::Anderson;
 pub use engine::{run, EngineOutcome, EngineSettings, EngineState};
 pub use rho_rule::RhoRule;
-pub use variant::{Relaxation, Variant};
+pub use variant::{Relaxation, Variant, VARIANT_NAMES};
 
 use crate::error::Error;
 

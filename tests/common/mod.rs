@@ -1,0 +1,139 @@
+//! Helpers shared by the integration tests: a deterministic random generator and an
+//! error measure written independently of the library (geometric projection, dense
+//! products).
+
+#![allow(dead_code)]
+
+use cadmm::{CscMatrix, GlobalProblem, LocalProblem, Problem};
+
+/// xorshift64*: deterministic, good enough for test data.
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    /// Uniform in [-1, 1).
+    pub fn uniform(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let x = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D);
+        (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+    /// A vector with components of very different magnitudes.
+    pub fn vec3(&mut self) -> [f64; 3] {
+        let scale = 10f64.powf(3.0 * self.uniform());
+        [
+            scale * self.uniform(),
+            scale * self.uniform(),
+            scale * self.uniform(),
+        ]
+    }
+}
+
+/// Projection onto `{ ||x_T|| <= mu x_N }` written from geometry rather than from the
+/// library's case formulas: the nearest point among the cone itself (z inside), the apex
+/// and the generating ray through z's tangential direction, `argmin ||z - p||`.
+pub fn ray_projection(z: [f64; 3], mu: f64) -> [f64; 3] {
+    let t = z[1].hypot(z[2]);
+    if z[0] >= 0.0 && t <= mu * z[0] {
+        return z;
+    }
+    let (w1, w2) = if t > 0.0 {
+        (z[1] / t, z[2] / t)
+    } else {
+        (1.0, 0.0)
+    };
+    // Unit generator of the boundary ray in the plane of z and the normal axis.
+    let s = (1.0 + mu * mu).sqrt();
+    let d = [1.0 / s, mu * w1 / s, mu * w2 / s];
+    let along = (z[0] * d[0] + z[1] * d[1] + z[2] * d[2]).max(0.0);
+    [along * d[0], along * d[1], along * d[2]]
+}
+
+fn dense(a: &CscMatrix) -> Vec<Vec<f64>> {
+    let mut d = vec![vec![0.0; a.ncols()]; a.nrows()];
+    for j in 0..a.ncols() {
+        for (i, v) in a.col(j) {
+            d[i][j] += v;
+        }
+    }
+    d
+}
+
+fn matvec(a: &[Vec<f64>], x: &[f64]) -> Vec<f64> {
+    a.iter()
+        .map(|row| row.iter().zip(x).map(|(p, q)| p * q).sum())
+        .collect()
+}
+
+fn matvec_t(a: &[Vec<f64>], x: &[f64]) -> Vec<f64> {
+    let ncols = a.first().map_or(0, |r| r.len());
+    (0..ncols)
+        .map(|j| a.iter().zip(x).map(|(row, xi)| row[j] * xi).sum())
+        .collect()
+}
+
+fn norm(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+fn natural_map(r: &[f64], u: &[f64], mu: &[f64]) -> f64 {
+    let mut s = 0.0;
+    for (i, &m) in mu.iter().enumerate() {
+        let (ri, ui) = (&r[3 * i..3 * i + 3], &u[3 * i..3 * i + 3]);
+        let ut = [ui[0] + m * ui[1].hypot(ui[2]), ui[1], ui[2]];
+        let p = ray_projection([ri[0] - ut[0], ri[1] - ut[1], ri[2] - ut[2]], m);
+        s += (0..3).map(|k| (ri[k] - p[k]).powi(2)).sum::<f64>();
+    }
+    s.sqrt()
+}
+
+fn rel(num: f64, den: f64) -> f64 {
+    if den > 1.5e-8 {
+        num / den
+    } else {
+        num
+    }
+}
+
+/// ALGORITHMS.md section 7, global form, dense and independent of the library.
+pub fn global_error(p: &GlobalProblem, r: &[f64], v: &[f64]) -> f64 {
+    let (m, h) = (dense(&p.m), dense(&p.h));
+    let mv = matvec(&m, v);
+    let hr = matvec(&h, r);
+    let eq: Vec<f64> = (0..mv.len()).map(|i| -mv[i] + hr[i] + p.f[i]).collect();
+    let e1 = rel(norm(&eq), norm(&p.f).max(norm(&mv)).max(norm(&hr)));
+    let u: Vec<f64> = matvec_t(&h, v)
+        .iter()
+        .zip(&p.w)
+        .map(|(a, b)| a + b)
+        .collect();
+    e1 + rel(natural_map(r, &u, &p.mu), norm(&u).max(norm(r)))
+}
+
+/// ALGORITHMS.md section 7, local form, dense and independent of the library.
+pub fn local_error(p: &LocalProblem, r: &[f64]) -> f64 {
+    let w = dense(&p.w);
+    let u: Vec<f64> = matvec(&w, r).iter().zip(&p.q).map(|(a, b)| a + b).collect();
+    rel(natural_map(r, &u, &p.mu), norm(&p.q))
+}
+
+/// Error of a solution of either form.
+pub fn error(p: &Problem, r: &[f64], v: &[f64]) -> f64 {
+    if !r.iter().chain(v).all(|x| x.is_finite()) {
+        return f64::INFINITY;
+    }
+    match p {
+        Problem::Global(g) => global_error(g, r, v),
+        Problem::Local(l) => local_error(l, r),
+    }
+}
+
+/// `../shared/data/fclib/<rel>` from the crate root.
+pub fn data(rel: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/fclib")
+        .join(rel)
+}

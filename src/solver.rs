@@ -244,6 +244,14 @@ impl Solver {
         };
         let out = admm::run(self.form.splitting(), &mut self.state, &set, t0)?;
         let status = out.status.unwrap_or(Status::MaxIterations);
+        if status == Status::NumericalError {
+            // The splitting's velocity comes from the step that blew up: recompute it from
+            // the last finite iterate, which the state holds.
+            let mut ax = std::mem::take(&mut self.state.ax);
+            self.form.splitting().set_rho(self.state.rho)?;
+            self.form.splitting().x_step(&self.state.y, &self.state.zeta, self.state.rho, &mut ax);
+            self.state.ax = ax;
+        }
         self.trace = out.trace;
         self.stats = Stats {
             status,

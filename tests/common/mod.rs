@@ -3,6 +3,8 @@
 //! products).
 
 #![allow(dead_code)]
+// Dense reference code indexes rows and columns by number on purpose.
+#![allow(clippy::needless_range_loop)]
 
 use cadmm::{CscMatrix, GlobalProblem, LocalProblem, Problem};
 

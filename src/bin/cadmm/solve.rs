@@ -1,55 +1,42 @@
-//! `cadmm`: solve FCLib problem files from the command line.
+//! `cadmm solve`: solve one FCLib file and print a one-line JSON summary.
 
 use cadmm::{fclib, InitialRho, SUpdate, Settings, Solver, VariantChoice};
-use clap::{Parser, Subcommand};
+use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-#[derive(Parser)]
-#[command(
-    name = "cadmm",
-    version,
-    about = "ADMM solver for 3D frictional contact problems (FCLib files)"
-)]
-struct Cli {
-    #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Subcommand)]
-enum Command {
-    /// Solve one FCLib file and print a one-line JSON summary.
-    Solve {
-        /// FCLib HDF5 problem file (fclib_global or fclib_local).
-        file: PathBuf,
-        /// Variant: auto, cp-N ... vp-RR-Spectral.
-        #[arg(long, default_value = "auto")]
-        variant: String,
-        /// Tolerance on the error measure.
-        #[arg(long, default_value_t = 1e-8)]
-        tol: f64,
-        /// Iteration limit (the time limit is usually the one that binds).
-        #[arg(long, default_value_t = 10_000_000)]
-        max_iter: usize,
-        /// Time limit in seconds.
-        #[arg(long)]
-        time_limit: Option<f64>,
-        /// Anderson memory (0 = off); default: the variant's.
-        #[arg(long)]
-        anderson: Option<usize>,
-        /// Initial rho rule: normal, acary, ghadimi, dicairano, or a number (given).
-        #[arg(long)]
-        initial_rho: Option<String>,
-        /// s update: internal or external.
-        #[arg(long, default_value = "internal")]
-        s_update: String,
-        /// Write r, u, v into /solution of this HDF5 file.
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Print the JSON summary (the default output; kept for scripts that pass it).
-        #[arg(long)]
-        json: bool,
-    },
+/// Flags of `cadmm solve`.
+#[derive(Args)]
+pub struct SolveArgs {
+    /// FCLib HDF5 problem file (fclib_global or fclib_local).
+    file: PathBuf,
+    /// Variant: auto, cp-N ... vp-RR-Spectral.
+    #[arg(long, default_value = "auto")]
+    variant: String,
+    /// Tolerance on the error measure.
+    #[arg(long, default_value_t = 1e-8)]
+    tol: f64,
+    /// Iteration limit (the time limit is usually the one that binds).
+    #[arg(long, default_value_t = 10_000_000)]
+    max_iter: usize,
+    /// Time limit in seconds.
+    #[arg(long)]
+    time_limit: Option<f64>,
+    /// Anderson memory (0 = off); default: the variant's.
+    #[arg(long)]
+    anderson: Option<usize>,
+    /// Initial rho rule: normal, acary, ghadimi, dicairano, or a number (given).
+    #[arg(long)]
+    initial_rho: Option<String>,
+    /// s update: internal or external.
+    #[arg(long, default_value = "internal")]
+    s_update: String,
+    /// Write r, u, v into /solution of this HDF5 file.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print the JSON summary (the default output; kept for scripts that pass it).
+    #[arg(long)]
+    json: bool,
 }
 
 fn settings_from(
@@ -92,7 +79,8 @@ fn settings_from(
     Ok(s)
 }
 
-fn json_number(x: f64) -> String {
+/// A JSON number, `null` when not finite (JSON has no infinity).
+pub fn json_number(x: f64) -> String {
     if x.is_finite() {
         format!("{x:e}")
     } else {
@@ -100,71 +88,68 @@ fn json_number(x: f64) -> String {
     }
 }
 
-fn main() -> ExitCode {
-    let cli = Cli::parse();
-    match cli.command {
-        Command::Solve {
-            file,
-            variant,
+/// Runs `cadmm solve`: exit code 0 with the JSON line on stdout, 2 with a message on stderr.
+pub fn run(a: SolveArgs) -> ExitCode {
+    let SolveArgs {
+        file,
+        variant,
+        tol,
+        max_iter,
+        time_limit,
+        anderson,
+        initial_rho,
+        s_update,
+        out,
+        json: _,
+    } = a;
+    let run = || -> Result<String, cadmm::Error> {
+        let settings = settings_from(
+            &variant,
             tol,
             max_iter,
             time_limit,
             anderson,
-            initial_rho,
-            s_update,
-            out,
-            json: _,
-        } => {
-            let run = || -> Result<String, cadmm::Error> {
-                let settings = settings_from(
-                    &variant,
-                    tol,
-                    max_iter,
-                    time_limit,
-                    anderson,
-                    initial_rho.as_deref(),
-                    &s_update,
-                )?;
-                let problem = fclib::read(&file)?;
-                let form = match problem {
-                    cadmm::Problem::Global(_) => "global",
-                    cadmm::Problem::Local(_) => "local",
-                };
-                let mut solver = Solver::new(problem, settings)?;
-                let status = solver.solve()?;
-                let st = *solver.stats();
-                if let Some(out) = &out {
-                    fclib::write_solution(out, &solver.solution())?;
-                }
-                let r = solver.resolved();
-                Ok(format!(
-                    "{{\"file\": \"{}\", \"form\": \"{form}\", \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"seconds\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"rho\": {}, \"refactorizations\": {}, \"variant\": \"{}\", \"initial_rho\": \"{}\", \"anderson\": {}, \"anderson_accepted\": {}, \"anderson_rejected\": {}}}",
-                    file.display().to_string().replace('\\', "\\\\").replace('"', "\\\""),
-                    status.name(),
-                    st.iterations,
-                    json_number(st.error),
-                    json_number(st.setup_seconds + st.solve_seconds),
-                    json_number(st.setup_seconds),
-                    json_number(st.solve_seconds),
-                    json_number(st.rho),
-                    st.refactorizations,
-                    r.variant.name(),
-                    r.initial_rho.name(),
-                    r.anderson,
-                    st.anderson_accepted,
-                    st.anderson_rejected,
-                ))
-            };
-            match run() {
-                Ok(line) => {
-                    println!("{line}");
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("cadmm: {e}");
-                    ExitCode::from(2)
-                }
-            }
+            initial_rho.as_deref(),
+            &s_update,
+        )?;
+        let problem = fclib::read(&file)?;
+        let form = match problem {
+            cadmm::Problem::Global(_) => "global",
+            cadmm::Problem::Local(_) => "local",
+        };
+        let mut solver = Solver::new(problem, settings)?;
+        let status = solver.solve()?;
+        let st = *solver.stats();
+        if let Some(out) = &out {
+            fclib::write_solution(out, &solver.solution())?;
+        }
+        let r = solver.resolved();
+        Ok(format!(
+            "{{\"file\": \"{}\", \"form\": \"{form}\", \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"seconds\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"rho\": {}, \"refactorizations\": {}, \"variant\": \"{}\", \"initial_rho\": \"{}\", \"anderson\": {}, \"anderson_accepted\": {}, \"anderson_rejected\": {}}}",
+            file.display().to_string().replace('\\', "\\\\").replace('"', "\\\""),
+            status.name(),
+            st.iterations,
+            json_number(st.error),
+            json_number(st.setup_seconds + st.solve_seconds),
+            json_number(st.setup_seconds),
+            json_number(st.solve_seconds),
+            json_number(st.rho),
+            st.refactorizations,
+            r.variant.name(),
+            r.initial_rho.name(),
+            r.anderson,
+            st.anderson_accepted,
+            st.anderson_rejected,
+        ))
+    };
+    match run() {
+        Ok(line) => {
+            println!("{line}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("cadmm: {e}");
+            ExitCode::from(2)
         }
     }
 }

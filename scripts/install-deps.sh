@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Installs what building and testing cadmm needs on a Debian machine, when missing:
+# cmake and pkg-config (C/CMake side), HDF5 (FCLib files), SuiteSparse and Eigen (the C
+# reference-solve tests), valgrind (memory checks of the C tests), Siconos numerics (the
+# peer the benchmarks compare against), a font for the benchmark plots and the Python
+# packages of the error checker.
+set -euo pipefail
+
+debs=(cmake pkg-config libhdf5-dev libsuitesparse-dev libeigen3-dev valgrind fonts-dejavu-core
+      libsiconos-numerics-dev python3-siconos python3-h5py python3-numpy python3-scipy)
+missing=()
+for d in "${debs[@]}"; do
+  dpkg-query -W -f='${Status}' "$d" 2>/dev/null | grep -q "install ok installed" || missing+=("$d")
+done
+if ((${#missing[@]})); then
+  SUDO=""
+  [[ $(id -u) -ne 0 ]] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}"
+fi
+# The first python3 on PATH runs ../shared/tools/fc_error.py in the tests.
+if ! python3 -c "import numpy, scipy, h5py" 2>/dev/null; then
+  python3 -m pip install --quiet numpy scipy h5py
+fi

@@ -1,0 +1,244 @@
+//! PNG plots of `cadmm bench`: performance profiles and work-precision (error against time).
+//!
+//! Text is drawn with plotters' pure-Rust `ab_glyph` renderer, which needs a TrueType font
+//! registered at run time: `$CADMM_FONT`, else the first of a few common system paths
+//! (Debian/Ubuntu: package `fonts-dejavu-core`).
+
+use crate::profile::{max_finite_ratio, profile_steps};
+use plotters::prelude::*;
+use plotters::style::register_font;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::path::Path;
+use std::sync::OnceLock;
+
+const FONT_PATHS: [&str; 8] = [
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
+    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+    "/usr/share/fonts/truetype/freefont/FreeSans.ttf",
+    "/System/Library/Fonts/Supplemental/Arial.ttf",
+    "C:\\Windows\\Fonts\\arial.ttf",
+];
+
+/// Finds and registers the font once; `Err` says why there is none (plots are then skipped).
+pub fn font() -> Result<(), String> {
+    static FONT: OnceLock<Result<(), String>> = OnceLock::new();
+    FONT.get_or_init(|| {
+        let candidates: Vec<String> = std::env::var("CADMM_FONT")
+            .ok()
+            .into_iter()
+            .chain(FONT_PATHS.iter().map(|s| s.to_string()))
+            .collect();
+        for p in &candidates {
+            if let Ok(bytes) = std::fs::read(p) {
+                // The registry keeps a 'static reference; one font for the whole run.
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                if register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
+                    return Ok(());
+                }
+            }
+        }
+        Err(format!(
+            "no TrueType font found (set CADMM_FONT, or install fonts-dejavu-core); tried {}",
+            candidates.join(", ")
+        ))
+    })
+    .clone()
+}
+
+/// Tableau 10: distinguishable, and readable on white.
+const COLORS: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+/// The color of solver number `s` (the same in every plot of a run).
+pub fn color(s: usize) -> RGBColor {
+    COLORS[s % COLORS.len()]
+}
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+const SIZE: (u32, u32) = (960, 640);
+
+/// `profile-<tol>.png`: `rho_s(tau)` against `log2 tau`, one step curve per solver.
+pub fn profile(path: &Path, tol: f64, solvers: &[String], r: &[Vec<f64>]) -> Result<(), String> {
+    font()?;
+    let x_end = (max_finite_ratio(r).log2() * 1.05).max(1.0);
+    let root = BitMapBackend::new(path, SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!("Performance profile, tol = {tol:e} ({} problems)", r.len()),
+            ("sans-serif", 26),
+        )
+        .margin(20)
+        .x_label_area_size(50)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0f64..x_end, 0f64..1.05f64)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("log2(τ)   (τ: time / best time on the problem)")
+        .y_desc("ρ(τ): fraction of problems")
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 18))
+        .draw()
+        .map_err(err)?;
+    for (s, name) in solvers.iter().enumerate() {
+        let c = color(s);
+        chart
+            .draw_series(LineSeries::new(
+                profile_steps(r, s, x_end),
+                c.stroke_width(3),
+            ))
+            .map_err(err)?
+            .label(name.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(3)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .label_font(("sans-serif", 16))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)
+}
+
+/// One solver's data on a work-precision plot.
+pub struct Curve {
+    /// Legend text.
+    pub label: String,
+    /// Index of the solver (for its color).
+    pub solver: usize,
+    /// `(seconds, error)` points; empty when the run gave no solution.
+    pub points: Vec<(f64, f64)>,
+    /// Draw markers (a peer without a trace: one point per run) rather than a line.
+    pub markers: bool,
+}
+
+/// Errors below this are drawn at this value (log axis).
+const ERROR_FLOOR: f64 = 1e-17;
+
+/// `work-precision/<problem>.png`: error against wall time, log-log, with the tolerances as
+/// dashed lines.
+pub fn work_precision(
+    path: &Path,
+    title: &str,
+    curves: &[Curve],
+    tols: &[f64],
+) -> Result<(), String> {
+    font()?;
+    let pts = || {
+        curves
+            .iter()
+            .flat_map(|c| c.points.iter().copied())
+            .filter(|&(x, y)| x > 0.0 && x.is_finite() && y.is_finite())
+    };
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0f64, f64::INFINITY, 0f64);
+    for (x, y) in pts() {
+        let y = y.max(ERROR_FLOOR);
+        (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+    }
+    for &t in tols {
+        (y0, y1) = (y0.min(t), y1.max(t));
+    }
+    if !x0.is_finite() {
+        (x0, x1) = (1e-4, 10.0);
+    }
+    let (x0, x1) = (x0 / 1.5, x1 * 1.5);
+    let (y0, y1) = (y0 / 3.0, y1 * 3.0);
+    let root = BitMapBackend::new(path, SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 24))
+        .margin(20)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("wall time (s)")
+        .y_desc("error (ALGORITHMS.md section 7)")
+        .x_label_formatter(&|x| format!("{x:.0e}"))
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 18))
+        .draw()
+        .map_err(err)?;
+    let tol_color = RGBColor(80, 80, 80);
+    for &t in tols {
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(x0, t), (x1, t)],
+                10,
+                6,
+                tol_color.stroke_width(2),
+            ))
+            .map_err(err)?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                format!("tol {t:e}"),
+                (x0 * 1.05, t),
+                ("sans-serif", 15)
+                    .into_font()
+                    .color(&tol_color)
+                    .pos(Pos::new(HPos::Left, VPos::Bottom)),
+            )))
+            .map_err(err)?;
+    }
+    for c in curves {
+        let col = color(c.solver);
+        let data: Vec<(f64, f64)> = c
+            .points
+            .iter()
+            .filter(|&&(x, y)| x > 0.0 && x.is_finite() && y.is_finite())
+            .map(|&(x, y)| (x, y.max(ERROR_FLOOR)))
+            .collect();
+        let label = c.label.as_str();
+        if c.markers {
+            if data.len() > 1 {
+                chart
+                    .draw_series(LineSeries::new(data.clone(), col.stroke_width(1)))
+                    .map_err(err)?;
+            }
+            chart
+                .draw_series(data.iter().map(|&p| Circle::new(p, 6, col.filled())))
+                .map_err(err)?
+                .label(label)
+                .legend(move |(x, y)| Circle::new((x + 12, y), 5, col.filled()));
+        } else {
+            chart
+                .draw_series(LineSeries::new(data, col.stroke_width(2)))
+                .map_err(err)?
+                .label(label)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 24, y)], col.stroke_width(2))
+                });
+        }
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 16))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)
+}

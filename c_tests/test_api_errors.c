@@ -734,13 +734,8 @@ static void test_solver_calls(void)
         EXPECT_RC(cadmm_solver_update(NULL, p2), CADMM_ERR_NULL_POINTER);
         EXPECT_RC(cadmm_solver_update(sv, NULL), CADMM_ERR_NULL_POINTER);
         EXPECT_RC(cadmm_solver_update(sv, pdim), CADMM_ERR_DIMENSION);
-        {
-            /* the other form: the header documents CADMM_ERR_UNSUPPORTED; a size check that
-               comes first may report CADMM_ERR_DIMENSION instead (n = 0 for a local problem) */
-            cadmm_result rc = cadmm_solver_update(sv, ploc);
-            CHECK_MSG(rc == CADMM_ERR_UNSUPPORTED || rc == CADMM_ERR_DIMENSION,
-                      "update with a local problem: %s", code_name(rc));
-        }
+        /* the other form is refused before any size is compared */
+        EXPECT_RC(cadmm_solver_update(sv, ploc), CADMM_ERR_UNSUPPORTED);
         EXPECT_RC(cadmm_solver_update(sv, ppat), CADMM_ERR_INVALID_CSC);
         /* after a failed update, solve and warm start refuse with the same code, the last
            solution stays readable */

@@ -481,8 +481,8 @@ cadmm_result cadmm_solver_new(const struct cadmm_problem *p,
  * The next solve starts cold unless `cadmm_solver_warm_start` is called after this.
  *
  * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION` (other sizes),
- * `CADMM_ERR_INVALID_CSC` (other pattern), `CADMM_ERR_UNSUPPORTED` (the other form with
- * the same sizes), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a failure the solver
+ * `CADMM_ERR_INVALID_CSC` (other pattern), `CADMM_ERR_UNSUPPORTED` (a problem of the
+ * other form, global or local), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a failure the solver
  * refuses `cadmm_solver_warm_start` and `cadmm_solver_solve` (with the same code) until an
  * update succeeds; the solution and statistics of the last solve stay readable.
  */

@@ -105,23 +105,33 @@ impl Solver {
     /// Replaces the problem by one with the same sizes and sparsity patterns (the next time
     /// step of a simulation): numeric refactorization only.
     pub fn update(&mut self, problem: Problem) -> Result<(), Error> {
-        if problem.n_contacts() * 3 != self.state.y.len()
-            || problem.n_velocities() != self.n_velocities()
-        {
+        let same_form = matches!(
+            (&self.form, &problem),
+            (Form::Global(_), Problem::Global(_)) | (Form::Local(_), Problem::Local(_))
+        );
+        if !same_form {
+            return Err(Error::Unsupported(
+                "update: the new problem is of the other form (global/local)".into(),
+            ));
+        }
+        if problem.n_contacts() * 3 != self.state.y.len() {
             return Err(Error::Dimension {
-                field: "problem",
-                expected: self.state.y.len(),
-                found: problem.n_contacts() * 3,
+                field: "n_contacts",
+                expected: self.state.y.len() / 3,
+                found: problem.n_contacts(),
+            });
+        }
+        if problem.n_velocities() != self.n_velocities() {
+            return Err(Error::Dimension {
+                field: "n",
+                expected: self.n_velocities(),
+                found: problem.n_velocities(),
             });
         }
         match (&mut self.form, problem) {
             (Form::Global(g), Problem::Global(p)) => g.update(p)?,
             (Form::Local(l), Problem::Local(p)) => l.update(p)?,
-            _ => {
-                return Err(Error::Unsupported(
-                    "update: the new problem is of the other form (global/local)".into(),
-                ))
-            }
+            _ => unreachable!("the forms were compared above"),
         }
         self.form.splitting().set_rho(self.rho0)?;
         self.warm = false;
@@ -249,7 +259,9 @@ impl Solver {
             // the last finite iterate, which the state holds.
             let mut ax = std::mem::take(&mut self.state.ax);
             self.form.splitting().set_rho(self.state.rho)?;
-            self.form.splitting().x_step(&self.state.y, &self.state.zeta, self.state.rho, &mut ax);
+            self.form
+                .splitting()
+                .x_step(&self.state.y, &self.state.zeta, self.state.rho, &mut ax);
             self.state.ax = ax;
         }
         self.trace = out.trace;

@@ -1177,9 +1177,9 @@ fn update_and_warm_start() {
         );
         assert!(last_error(sv).contains('v'), "{}", last_error(sv));
 
-        // A problem of the other form (hence other sizes): refused, the solver still works.
+        // A problem of the other form: refused, the solver still works.
         let local = local_problem();
-        assert_eq!(cadmm_solver_update(sv, local), CADMM_ERR_DIMENSION);
+        assert_eq!(cadmm_solver_update(sv, local), CADMM_ERR_UNSUPPORTED);
         // Other sizes.
         let (m4, h4) = (
             Csc::eye(4),

@@ -51,6 +51,7 @@ pub struct SparseFactor {
     signs: Vec<i8>,
     cache: Vec<(f64, Numeric)>,
     mem: MemBuffer,
+    probe: Vec<f64>,
     refactorizations: usize,
 }
 
@@ -102,6 +103,7 @@ impl SparseFactor {
             signs,
             cache: Vec::with_capacity(CACHE),
             mem: MemBuffer::new(req),
+            probe: vec![0.0; n],
             refactorizations: 0,
         })
     }
@@ -216,9 +218,12 @@ impl SparseFactor {
         if self.kind == FactorKind::Lu {
             // Partial pivoting does not report an exactly singular matrix: a zero pivot
             // shows up as a non-finite solution, so probe once per factorization.
-            let mut probe = vec![1.0; n];
+            let mut probe = std::mem::take(&mut self.probe);
+            probe.fill(1.0);
             self.solve_in_place(&mut probe);
-            if !probe.iter().all(|v| v.is_finite()) {
+            let singular = !probe.iter().all(|v| v.is_finite());
+            self.probe = probe;
+            if singular {
                 self.cache.pop();
                 return Err(Error::Singular { field: self.name });
             }

@@ -1,0 +1,26 @@
+# cmake -DLIBRARY=<path> -DEXPECTED_SONAME=<soname> [-DREADELF=..] [-DOBJDUMP=..] -P CheckSoname.cmake
+# Fails unless the ELF shared library LIBRARY has the dynamic entry SONAME EXPECTED_SONAME.
+if(NOT EXISTS "${LIBRARY}")
+  message(FATAL_ERROR "CheckSoname: ${LIBRARY} does not exist")
+endif()
+if(READELF)
+  execute_process(COMMAND "${READELF}" -d "${LIBRARY}" OUTPUT_VARIABLE _out
+                  RESULT_VARIABLE _rc ERROR_VARIABLE _err)
+  set(_pattern "\\(SONAME\\)[^\n]*\\[([^]\n]*)\\]")
+elseif(OBJDUMP)
+  execute_process(COMMAND "${OBJDUMP}" -p "${LIBRARY}" OUTPUT_VARIABLE _out
+                  RESULT_VARIABLE _rc ERROR_VARIABLE _err)
+  set(_pattern "SONAME[ \t]+([^ \t\n]+)")
+else()
+  message(FATAL_ERROR "CheckSoname: neither readelf nor objdump was found")
+endif()
+if(NOT _rc EQUAL 0)
+  message(FATAL_ERROR "CheckSoname: inspecting ${LIBRARY} failed (${_rc}): ${_err}")
+endif()
+if(NOT _out MATCHES "${_pattern}")
+  message(FATAL_ERROR "CheckSoname: ${LIBRARY} has no SONAME entry")
+endif()
+if(NOT CMAKE_MATCH_1 STREQUAL EXPECTED_SONAME)
+  message(FATAL_ERROR "CheckSoname: ${LIBRARY} has SONAME '${CMAKE_MATCH_1}', expected '${EXPECTED_SONAME}'")
+endif()
+message(STATUS "CheckSoname: ${LIBRARY}: SONAME ${CMAKE_MATCH_1}")

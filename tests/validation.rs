@@ -390,9 +390,25 @@ fn warm_start_checks_its_input() {
 #[test]
 fn a_non_finite_iterate_stops_with_a_status_and_keeps_finite_values() {
     // Finite data whose solution overflows: v = M^-1 f with M = 1e-300 I and f = 1e300.
-    let m = CscMatrix::from_dense("M", 3, 3, &[1e-300, 0.0, 0.0, 0.0, 1e-300, 0.0, 0.0, 0.0, 1e-300]).unwrap();
-    let p = GlobalProblem::new(m, identity3(), vec![1e300, 1e300, 0.0], vec![0.0; 3], vec![0.5]).unwrap();
-    let s = Settings { initial_rho: Some(InitialRho::Given(1.0)), ..Default::default() };
+    let m = CscMatrix::from_dense(
+        "M",
+        3,
+        3,
+        &[1e-300, 0.0, 0.0, 0.0, 1e-300, 0.0, 0.0, 0.0, 1e-300],
+    )
+    .unwrap();
+    let p = GlobalProblem::new(
+        m,
+        identity3(),
+        vec![1e300, 1e300, 0.0],
+        vec![0.0; 3],
+        vec![0.5],
+    )
+    .unwrap();
+    let s = Settings {
+        initial_rho: Some(InitialRho::Given(1.0)),
+        ..Default::default()
+    };
     let mut solver = Solver::new(Problem::Global(p), s).unwrap();
     assert_eq!(solver.solve().unwrap(), cadmm::Status::NumericalError);
     let sol = solver.solution();

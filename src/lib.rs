@@ -20,6 +20,8 @@
 #![allow(clippy::large_enum_variant)]
 
 pub mod admm;
+/// Seed 001 analysis: stationary Anderson acceleration, optimal coefficients, spectra of `q'`.
+pub mod analysis;
 pub mod cone;
 pub mod contact;
 pub mod csc;
@@ -34,6 +36,9 @@ pub mod problem;
 pub mod settings;
 pub mod solver;
 pub mod stats;
+/// Seed 001 test problems (ridge, logistic, total variation, lasso, NNLS, constrained
+/// logistic) as engine plug-ins.
+pub mod test_problems;
 
 pub use admm::SUpdate;
 pub use contact::InitialRho;

@@ -444,6 +444,13 @@ cadmm_result cadmm_settings_set_time_limit(struct cadmm_settings *s, double seco
 cadmm_result cadmm_settings_set_anderson(struct cadmm_settings *s, uint32_t memory);
 
 /**
+ * Tries an Anderson step every `every` iterations (default 1: every iteration; the
+ * history is recorded at every iteration either way). Errors: `CADMM_ERR_NULL_POINTER`,
+ * `CADMM_ERR_INVALID_SETTING` for 0 (the settings are unchanged).
+ */
+cadmm_result cadmm_settings_set_anderson_interval(struct cadmm_settings *s, uint32_t every);
+
+/**
  * Chooses when the De Saxce parameter s is updated: "internal" (every iteration, the
  * default) or "external" (after each inner convex solve). Errors:
  * `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).

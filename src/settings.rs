@@ -42,6 +42,9 @@ pub struct Settings {
     pub s_update: SUpdate,
     /// Anderson memory; `None`: the variant's default (on for `auto`, off for named variants).
     pub anderson: Option<usize>,
+    /// Try an Anderson step every this many iterations (1 = every iteration, the default);
+    /// the history is recorded at every iteration either way.
+    pub anderson_interval: usize,
     /// Record a per-iteration trace. Default off.
     pub trace: bool,
 }
@@ -56,6 +59,7 @@ impl Default for Settings {
             initial_rho: None,
             s_update: SUpdate::Internal,
             anderson: None,
+            anderson_interval: 1,
             trace: false,
         }
     }
@@ -111,6 +115,9 @@ impl Settings {
                     format!("a given rho must be positive and finite, got {r}"),
                 );
             }
+        }
+        if self.anderson_interval == 0 {
+            return bad("anderson_interval", "must be at least 1".into());
         }
         if let Some(m) = self.anderson {
             if m > 64 {

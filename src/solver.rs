@@ -244,6 +244,7 @@ impl Solver {
             time_limit: self.settings.time_limit,
             variant: self.resolved.variant,
             anderson: self.resolved.anderson,
+            anderson_interval: self.settings.anderson_interval,
             s_update: self.settings.s_update,
             eps_abs: 1e-6 * self.settings.tolerance.min(1e-3) / 1e-3,
             eps_rel: self.settings.tolerance,

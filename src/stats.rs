@@ -62,4 +62,8 @@ pub struct TracePoint {
     pub dual_residual: f64,
     /// Penalty used in this iteration.
     pub rho: f64,
+    /// Anderson steps accepted so far in this solve.
+    pub anderson_accepted: usize,
+    /// Anderson steps rejected so far in this solve.
+    pub anderson_rejected: usize,
 }

@@ -215,3 +215,43 @@ fn fclib_round_trip_keeps_the_problem() {
     assert!(matches!(e, cadmm::Error::Io(_)), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn anderson_interval_and_trace_statistics() {
+    let p = read("global/Box_Stacks-i0122-82-5.hdf5");
+    for interval in [1, 3] {
+        let s = Settings {
+            anderson: Some(5),
+            anderson_interval: interval,
+            trace: true,
+            ..settings("vp-N-He")
+        };
+        let mut solver = Solver::new(p.clone(), s).unwrap();
+        assert_eq!(
+            solver.solve().unwrap(),
+            Status::Solved,
+            "interval {interval}"
+        );
+        let sol = solver.solution();
+        assert!(common::error(&p, &sol.r, &sol.v) <= TOL);
+        let (trace, stats) = (solver.trace(), solver.stats());
+        assert_eq!(
+            trace.len(),
+            stats.iterations - stats.anderson_rejected,
+            "one point per kept iteration"
+        );
+        let last = trace.last().unwrap();
+        assert_eq!(
+            (last.anderson_accepted, last.anderson_rejected),
+            (stats.anderson_accepted, stats.anderson_rejected)
+        );
+        assert!(stats.anderson_accepted > 0);
+        // Tried every `interval` iterations at most.
+        assert!(
+            stats.anderson_accepted + stats.anderson_rejected <= stats.iterations / interval + 1
+        );
+        assert!(trace
+            .windows(2)
+            .all(|w| w[0].anderson_accepted <= w[1].anderson_accepted));
+    }
+}

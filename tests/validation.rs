@@ -326,6 +326,10 @@ fn settings_errors_name_the_setting() {
             anderson: Some(1000),
             ..Default::default()
         },
+        Settings {
+            anderson_interval: 0,
+            ..Default::default()
+        },
     ];
     let names = [
         "tolerance",
@@ -336,6 +340,7 @@ fn settings_errors_name_the_setting() {
         "time_limit",
         "initial_rho",
         "anderson",
+        "anderson_interval",
     ];
     for (s, name) in bad.into_iter().zip(names) {
         let e = Solver::new(p(), s).err().unwrap();

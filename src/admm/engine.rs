@@ -21,6 +21,8 @@ pub struct EngineSettings {
     pub variant: Variant,
     /// Anderson memory (0 = off). When on, it replaces the Nesterov relaxation.
     pub anderson: usize,
+    /// An Anderson step is tried every this many iterations (at least 1).
+    pub anderson_interval: usize,
     /// When the s parameter is updated.
     pub s_update: SUpdate,
     /// Absolute tolerance of the seed's residual test (eq. 16).
@@ -197,6 +199,8 @@ pub fn run(
                     primal_residual: primal,
                     dual_residual: dual,
                     rho,
+                    anderson_accepted: out.aa_accepted,
+                    anderson_rejected: out.aa_rejected,
                 });
             }
             if out.error <= set.tolerance {
@@ -256,10 +260,14 @@ pub fn run(
             aa_x[l..].copy_from_slice(&z_in);
             aa_g[..l].copy_from_slice(&y);
             aa_g[l..].copy_from_slice(&zeta);
-            last_was_aa = aa.step(&aa_x, &aa_g, &mut aa_next);
+            // The history grows every iteration; the extrapolated point is used only on
+            // the iterations that try it.
+            let extrapolated = aa.step(&aa_x, &aa_g, &mut aa_next);
+            last_was_aa = extrapolated && (k + 1) % set.anderson_interval.max(1) == 0;
             plain.copy_from_slice(&aa_g);
-            y_in.copy_from_slice(&aa_next[..l]);
-            z_in.copy_from_slice(&aa_next[l..]);
+            let next = if last_was_aa { &aa_next } else { &aa_g };
+            y_in.copy_from_slice(&next[..l]);
+            z_in.copy_from_slice(&next[l..]);
         } else {
             let mut relax = relaxation != Relaxation::None;
             if relaxation == Relaxation::NesterovRestart {

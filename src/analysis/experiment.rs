@@ -102,6 +102,7 @@ fn engine_settings(anderson: usize, tolerance: f64, max_iterations: usize) -> En
             relaxation: Relaxation::None,
         },
         anderson,
+        anderson_interval: 1,
         s_update: SUpdate::Internal,
         // The residual test never fires; the error measure decides alone.
         eps_abs: 0.0,

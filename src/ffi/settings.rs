@@ -165,6 +165,23 @@ pub unsafe extern "C" fn cadmm_settings_set_anderson(
     }
 }
 
+/// Tries an Anderson step every `every` iterations (default 1: every iteration; the
+/// history is recorded at every iteration either way). Errors: `CADMM_ERR_NULL_POINTER`,
+/// `CADMM_ERR_INVALID_SETTING` for 0 (the settings are unchanged).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_anderson_interval(
+    s: *mut cadmm_settings,
+    every: u32,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            set.anderson_interval = every as usize;
+            Ok(())
+        })
+    }
+}
+
 /// Chooses when the De Saxce parameter s is updated: "internal" (every iteration, the
 /// default) or "external" (after each inner convex solve). Errors:
 /// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).

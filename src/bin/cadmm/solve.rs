@@ -25,6 +25,9 @@ pub struct SolveArgs {
     /// Anderson memory (0 = off); default: the variant's.
     #[arg(long)]
     anderson: Option<usize>,
+    /// Try an Anderson step every N iterations.
+    #[arg(long, default_value_t = 1)]
+    anderson_interval: usize,
     /// Initial rho rule: normal, acary, ghadimi, dicairano, or a number (given).
     #[arg(long)]
     initial_rho: Option<String>,
@@ -39,23 +42,15 @@ pub struct SolveArgs {
     json: bool,
 }
 
-fn settings_from(
-    variant: &str,
-    tol: f64,
-    max_iter: usize,
-    time_limit: Option<f64>,
-    anderson: Option<usize>,
-    initial_rho: Option<&str>,
-    s_update: &str,
-) -> Result<Settings, cadmm::Error> {
-    let initial_rho = match initial_rho {
+fn settings_from(a: &SolveArgs) -> Result<Settings, cadmm::Error> {
+    let initial_rho = match a.initial_rho.as_deref() {
         None => None,
         Some(s) => Some(match s.parse::<f64>() {
             Ok(v) => InitialRho::from_name("given", v)?,
             Err(_) => InitialRho::from_name(s, 0.0)?,
         }),
     };
-    let s_update = match s_update {
+    let s_update = match a.s_update.as_str() {
         "internal" => SUpdate::Internal,
         "external" => SUpdate::External,
         other => {
@@ -66,13 +61,14 @@ fn settings_from(
         }
     };
     let s = Settings {
-        tolerance: tol,
-        max_iterations: max_iter,
-        time_limit: time_limit.unwrap_or(f64::INFINITY),
-        variant: VariantChoice::from_name(variant)?,
+        tolerance: a.tol,
+        max_iterations: a.max_iter,
+        time_limit: a.time_limit.unwrap_or(f64::INFINITY),
+        variant: VariantChoice::from_name(&a.variant)?,
         initial_rho,
         s_update,
-        anderson,
+        anderson: a.anderson,
+        anderson_interval: a.anderson_interval,
         trace: false,
     };
     s.validate()?;
@@ -90,28 +86,10 @@ pub fn json_number(x: f64) -> String {
 
 /// Runs `cadmm solve`: exit code 0 with the JSON line on stdout, 2 with a message on stderr.
 pub fn run(a: SolveArgs) -> ExitCode {
-    let SolveArgs {
-        file,
-        variant,
-        tol,
-        max_iter,
-        time_limit,
-        anderson,
-        initial_rho,
-        s_update,
-        out,
-        json: _,
-    } = a;
+    let settings = settings_from(&a);
+    let SolveArgs { file, out, .. } = a;
     let run = || -> Result<String, cadmm::Error> {
-        let settings = settings_from(
-            &variant,
-            tol,
-            max_iter,
-            time_limit,
-            anderson,
-            initial_rho.as_deref(),
-            &s_update,
-        )?;
+        let settings = settings?;
         let problem = fclib::read(&file)?;
         let form = match problem {
             cadmm::Problem::Global(_) => "global",

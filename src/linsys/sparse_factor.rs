@@ -50,6 +50,7 @@ pub struct SparseFactor {
     symbolic: Symbolic,
     signs: Vec<i8>,
     cache: Vec<(f64, Numeric)>,
+    spare: Vec<Numeric>,
     mem: MemBuffer,
     probe: Vec<f64>,
     refactorizations: usize,
@@ -94,6 +95,12 @@ impl SparseFactor {
                 .collect(),
             _ => Vec::new(),
         };
+        let spare = (0..CACHE)
+            .map(|_| match &symbolic {
+                Symbolic::Cholesky(s) => Numeric::Cholesky(vec![0.0; s.len_val()]),
+                Symbolic::Lu(_) => Numeric::Lu(Box::new(NumericLu::new())),
+            })
+            .collect();
         Ok(Self {
             kind,
             name,
@@ -102,6 +109,7 @@ impl SparseFactor {
             symbolic,
             signs,
             cache: Vec::with_capacity(CACHE),
+            spare,
             mem: MemBuffer::new(req),
             probe: vec![0.0; n],
             refactorizations: 0,
@@ -131,7 +139,7 @@ impl SparseFactor {
             });
         }
         self.matrix = matrix;
-        self.cache.clear();
+        self.spare.extend(self.cache.drain(..).map(|(_, n)| n));
         Ok(())
     }
 
@@ -156,11 +164,12 @@ impl SparseFactor {
             &self.values,
         );
         let stack = MemStack::new(&mut self.mem);
-        // Reuse the storage of the oldest cached factor when the cache is full.
-        let recycled = if self.cache.len() == CACHE {
-            Some(self.cache.remove(0).1)
-        } else {
-            None
+        // Storage from the pool made at construction, or that of the oldest cached factor:
+        // a change of rho inside the iteration does not allocate factor storage.
+        let recycled = match self.spare.pop() {
+            Some(n) => Some(n),
+            None if self.cache.len() == CACHE => Some(self.cache.remove(0).1),
+            None => None,
         };
         let numeric = match (&self.symbolic, self.kind) {
             (Symbolic::Cholesky(s), FactorKind::Cholesky) => {
@@ -224,7 +233,9 @@ impl SparseFactor {
             let singular = !probe.iter().all(|v| v.is_finite());
             self.probe = probe;
             if singular {
-                self.cache.pop();
+                if let Some((_, n)) = self.cache.pop() {
+                    self.spare.push(n);
+                }
                 return Err(Error::Singular { field: self.name });
             }
         }

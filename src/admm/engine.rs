@@ -178,9 +178,9 @@ pub fn run(
 
         // Stopping: the residual test of eq. (16) is a cheap trigger; the decision is the
         // problem's own error measure, also evaluated periodically.
-        let c = sp.c();
-        let eps_pri =
-            (l as f64).sqrt() * set.eps_abs + set.eps_rel * norm2(&ax).max(norm2(&y)).max(norm2(c));
+        // max(||A x||, ||y||): the c-independent part of the primal scale, used three times.
+        let xy_scale = norm2(&ax).max(norm2(&y));
+        let eps_pri = (l as f64).sqrt() * set.eps_abs + set.eps_rel * xy_scale.max(norm2(sp.c()));
         let residual_test = primal <= eps_pri && {
             let eps_dual = (l as f64).sqrt() * set.eps_abs + set.eps_rel * rho * sp.norm_at(&zeta);
             dual <= eps_dual
@@ -219,7 +219,7 @@ pub fn run(
                 sp.update_s(&ax, &y);
             }
             SUpdate::External => {
-                let scale = norm2(&ax).max(norm2(&y)).max(norm2(sp.c())).max(1e-300);
+                let scale = xy_scale.max(norm2(sp.c())).max(1e-300);
                 if primal <= inner_tol * scale
                     && dual <= inner_tol * rho * sp.norm_at(&zeta).max(1e-300)
                 {
@@ -240,7 +240,7 @@ pub fn run(
             rho,
             primal,
             dual,
-            primal_scale: norm2(&ax).max(norm2(&y)).max(norm2(sp.c())),
+            primal_scale: xy_scale.max(norm2(sp.c())),
             dual_scale,
             ax: &ax,
             y: &y,

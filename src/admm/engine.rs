@@ -308,6 +308,10 @@ pub fn run(
             }
             rho = rho_next;
             sp.set_rho(rho)?;
+            // Momentum and Anderson history mix iterates of the maps of two penalties:
+            // both restart. (Nesterov momentum carried across the spectral rule's frequent
+            // changes kept vp-R-Spectral from converging on GFC3D_Example1.)
+            alpha = 1.0;
             aa.reset();
             last_was_aa = false;
             res_prev = f64::INFINITY;

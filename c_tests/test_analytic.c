@@ -355,17 +355,6 @@ static instance make_instance(const form *F, const contact_case *C)
     return I;
 }
 
-static cadmm_csc view(const tu_csc *a)
-{
-    cadmm_csc c;
-    c.nrows = a->nrows;
-    c.ncols = a->ncols;
-    c.colptr = a->colptr;
-    c.rowind = a->rowind;
-    c.values = a->values;
-    return c;
-}
-
 /* Builds the cadmm problem of (F, I); also fills the CSC copies for the C error measure. */
 static cadmm_problem *build(const form *F, const instance *I, tu_csc *A, tu_csc *B)
 {
@@ -374,12 +363,12 @@ static cadmm_problem *build(const form *F, const instance *I, tu_csc *A, tu_csc 
     if (F->global) {
         *A = tu_csc_from_dense(F->n, F->n, F->M);
         *B = tu_csc_from_dense(F->n, 3, F->H);
-        cadmm_csc M = view(A), H = view(B);
+        cadmm_csc M = tu_csc_view(A), H = tu_csc_view(B);
         rc = cadmm_problem_new_global(F->n, 1, &M, &H, I->f, F->w, &I->mu, &p);
     } else {
         *A = tu_csc_from_dense(3, 3, F->W);
         memset(B, 0, sizeof *B);
-        cadmm_csc W = view(A);
+        cadmm_csc W = tu_csc_view(A);
         rc = cadmm_problem_new_local(1, &W, I->q, &I->mu, &p);
     }
     CHECK_MSG(rc == CADMM_OK, "%s: problem_new returned %d (%s)", F->name, rc,

@@ -46,17 +46,6 @@ static const file_case FILES[] = {
 
 static cholmod_common CM;
 
-static cadmm_csc view(const tu_csc *a)
-{
-    cadmm_csc c;
-    c.nrows = a->nrows;
-    c.ncols = a->ncols;
-    c.colptr = a->colptr;
-    c.rowind = a->rowind;
-    c.values = a->values;
-    return c;
-}
-
 /* CHOLMOD copy of a CSC matrix (stype 1: symmetric, upper part used; 0: unsymmetric). */
 static cholmod_sparse *to_cholmod(const tu_csc *a, int stype)
 {
@@ -314,7 +303,7 @@ static void check_global_file(const char *dir, const file_case *fc)
     printf("  n = %zu, %zu contacts, M nnz %lld, H nnz %lld (encodings %d/%d)\n", n, nc,
            (long long)P.M.colptr[n], (long long)P.H.colptr[m], P.encoding[0], P.encoding[1]);
     {
-        cadmm_csc M = view(&P.M), H = view(&P.H);
+        cadmm_csc M = tu_csc_view(&P.M), H = tu_csc_view(&P.H);
         cadmm_result rc = cadmm_problem_new_global(n, nc, &M, &H, P.f, P.w, P.mu, &gp);
         if (rc != CADMM_OK) {
             TU_FAIL("%s: new_global: %s", fc->file, cadmm_result_message(rc));
@@ -402,7 +391,7 @@ static void check_global_file(const char *dir, const file_case *fc)
            (long long)W.colptr[W.ncols],
            w_pd ? "positive definite" : "singular or ill-conditioned", rcond);
     {
-        cadmm_csc Wv = view(&W);
+        cadmm_csc Wv = tu_csc_view(&W);
         cadmm_result rc = cadmm_problem_new_local(nc, &Wv, q, P.mu, &lp);
         CHECK_MSG(rc == CADMM_OK, "%s: new_local: %s", fc->file, cadmm_result_message(rc));
     }
@@ -476,7 +465,7 @@ static void check_local_reader(const char *dir, const char *file)
     }
     CHECK_MSG(!P.is_global && P.encoding[0] == -2, "%s: expected a local nz = -2 file", file);
     {
-        cadmm_csc W = view(&P.W);
+        cadmm_csc W = tu_csc_view(&P.W);
         cadmm_result rc = cadmm_problem_new_local(P.nc, &W, P.q, P.mu, &lp);
         CHECK_MSG(rc == CADMM_OK, "%s: new_local: %s", file, cadmm_result_message(rc));
     }

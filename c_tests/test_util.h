@@ -134,13 +134,27 @@ static inline void *tu_calloc(size_t n, size_t size)
 /* ---- owned CSC matrix ------------------------------------------------------------------ */
 
 /* 0-based compressed sparse column, row indices sorted, no duplicates. Same field layout as
- * cadmm_csc (which has const pointers), so tu_csc_view in the tests converts trivially. */
+ * cadmm_csc (which has const pointers), so tu_csc_view converts trivially. */
 typedef struct tu_csc {
     size_t nrows, ncols;
     int64_t *colptr; /* ncols + 1 */
     int64_t *rowind; /* colptr[ncols] */
     double *values;  /* colptr[ncols] */
 } tu_csc;
+
+#ifdef CADMM_H
+/* A borrowed cadmm_csc view of `a` (needs cadmm.h included first). */
+static inline cadmm_csc tu_csc_view(const tu_csc *a)
+{
+    cadmm_csc c;
+    c.nrows = a->nrows;
+    c.ncols = a->ncols;
+    c.colptr = a->colptr;
+    c.rowind = a->rowind;
+    c.values = a->values;
+    return c;
+}
+#endif
 
 static inline void tu_csc_free(tu_csc *a)
 {

@@ -11,20 +11,14 @@
 //! spectra) go to `DIR` (default `target/aa_paper`). Text in the plots needs a TrueType
 //! font (`$CADMM_FONT` or a common system path); without one the plots are skipped.
 
+#[path = "../src/bin/cadmm/font.rs"]
+mod font;
+
 use cadmm::analysis::{analyze, saa, Analysis, ExperimentSettings, Run, Saa1Case, C64};
 use cadmm::test_problems::{paper_problems, TestProblem};
 use plotters::prelude::*;
-use plotters::style::register_font;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-
-const FONT_PATHS: [&str; 5] = [
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-    "/usr/share/fonts/truetype/freefont/FreeSans.ttf",
-];
 
 fn main() {
     let mut json = false;
@@ -39,7 +33,7 @@ fn main() {
             _ => usage(),
         }
     }
-    let plots = match register_a_font() {
+    let plots = match font::font() {
         Ok(()) => std::fs::create_dir_all(&out)
             .map_err(|e| eprintln!("no plots: cannot create {}: {e}", out.display()))
             .is_ok(),
@@ -82,27 +76,6 @@ fn main() {
 fn usage() -> ! {
     eprintln!("usage: aa_paper [--json] [--out DIR] [--only NAME]");
     std::process::exit(2)
-}
-
-fn register_a_font() -> Result<(), String> {
-    let candidates: Vec<String> = std::env::var("CADMM_FONT")
-        .ok()
-        .into_iter()
-        .chain(FONT_PATHS.iter().map(|s| s.to_string()))
-        .collect();
-    for p in &candidates {
-        if let Ok(bytes) = std::fs::read(p) {
-            // The font registry keeps a 'static reference.
-            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-            if register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
-                return Ok(());
-            }
-        }
-    }
-    Err(format!(
-        "no TrueType font found (set CADMM_FONT); tried {}",
-        candidates.join(", ")
-    ))
 }
 
 fn num(x: Option<f64>) -> String {

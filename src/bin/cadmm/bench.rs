@@ -263,7 +263,7 @@ fn execute(a: BenchArgs) -> Result<(), String> {
     }
     let scratch = std::env::temp_dir().join(format!("cadmm-bench-{}", std::process::id()));
     mkdir(&scratch)?;
-    let plots = plot::font();
+    let plots = crate::font::font();
     if let Err(why) = &plots {
         let msg = format!("No PNG written: {why}.");
         eprintln!("cadmm bench: {msg}");

@@ -2,6 +2,7 @@
 //! on them (`bench`).
 
 mod bench;
+mod font;
 mod plot;
 mod profile;
 mod run;

@@ -1,8 +1,8 @@
 /* A small FCLib reader written with the HDF5 C API, independent of the cadmm library, for
  * the reference tests. Reads /fclib_global (M, H, f, w, mu; joints are reported, not read)
  * and /fclib_local (W, q, mu). Matrices are returned in normalized CSC (rows sorted within
- * each column, duplicates summed) whatever their encoding in the file (ALGORITHMS.md
- * section 8): nz = -1 compressed column, nz = -2 compressed row, nz >= 0 triplets with
+ * each column, duplicates summed) whatever their encoding in the file (docs/algorithms.md
+ * §10): nz = -1 compressed column, nz = -2 compressed row, nz >= 0 triplets with
  * i = row index and p = column index (as Siconos writes them). */
 #ifndef CADMM_FCLIB_READ_H
 #define CADMM_FCLIB_READ_H

@@ -1,7 +1,7 @@
 /* Single-contact problems with a closed-form Coulomb answer, solved through the C API in
  * the global and the local form with every variant name and "auto".
  *
- * Conventions (ALGORITHMS.md section 1): contact vectors are (N, T1, T2), normal first.
+ * Conventions (docs/algorithms.md §1): contact vectors are (N, T1, T2), normal first.
  * Local form u = W r + q; global form M v = H r + f, u = H^T v + w, so the global problem
  * is the local one with the Delassus W = H^T M^-1 H and q = H^T M^-1 f + w. Coulomb's law
  * in De Saxce's form: K*_mu contains u + (mu ||u_T||, 0, 0), r is in K_mu, and the two are

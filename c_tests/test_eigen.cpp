@@ -4,7 +4,7 @@
 // Same checks as test_suitesparse.c with Eigen::SimplicialLDLT instead of CHOLMOD (SparseLU
 // for a non-symmetric M), plus dense checks (Eigen::LDLT or PartialPivLU,
 // SelfAdjointEigenSolver) on the small problems: v against
-// M^-1 (H r + f), the error measure of ALGORITHMS.md section 7 re-implemented here with
+// M^-1 (H r + f), the error measure of docs/algorithms.md §3 re-implemented here with
 // Eigen against cadmm_problem_error, and the Delassus form W = H^T M^-1 H,
 // q = H^T M^-1 f + w solved through the local API. Matrices are handed to the library
 // straight from Eigen's compressed storage (SparseMatrix<double, ColMajor, int64_t>).
@@ -75,7 +75,7 @@ cadmm_csc view(const SpMat &m)
 
 Vec to_vec(const double *x, size_t n) { return Eigen::Map<const Vec>(x, static_cast<Eigen::Index>(n)); }
 
-// Projection onto K_mu (ALGORITHMS.md section 2), written again here with Eigen types.
+// Projection onto K_mu (docs/algorithms.md §2), written again here with Eigen types.
 Eigen::Vector3d project_cone(const Eigen::Vector3d &z, double mu)
 {
     const double t = z.tail<2>().norm();

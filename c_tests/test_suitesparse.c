@@ -5,7 +5,7 @@
  *  1. v against v_ref = M^-1 (H r + f), with a CHOLMOD factorization of M (UMFPACK LU
  *     when M is not symmetric: LMGC_GFC3D_CubeH8 stores only the upper triangle of M, and
  *     the library, like ../shared/tools/fc_error.py, takes M as stored);
- *  2. the error measure of ALGORITHMS.md section 7 computed here (test_util.h) against
+ *  2. the error measure of docs/algorithms.md §3 computed here (test_util.h) against
  *     cadmm_problem_error, and against the solver's own statistics;
  *  3. the Delassus form W = H^T M^-1 H, q = H^T M^-1 f + w (same factorization), solved through
  *     cadmm_problem_new_local: each solution must solve the other formulation, and when

@@ -1,6 +1,6 @@
 /* Shared helpers of the cadmm C/C++ tests: checks, the FCLib data directory, a small owned
- * CSC type, and an independent implementation of the error measure of ALGORITHMS.md
- * section 7 (it does not call the library, so it can be compared with
+ * CSC type, and an independent implementation of the error measure of
+ * docs/algorithms.md §3 (it does not call the library, so it can be compared with
  * cadmm_problem_error).
  *
  * Everything is `static inline` so each test program includes it without a separate
@@ -214,7 +214,7 @@ static inline tu_csc tu_csc_from_dense(size_t nrows, size_t ncols, const double 
     return a;
 }
 
-/* ---- cones and the error measure (ALGORITHMS.md sections 2 and 7) ----------------------- */
+/* ---- cones and the error measure (docs/algorithms.md §2 and §3) ----------------------- */
 
 /* Projection of z = (z_N, z_T) onto K_mu = { ||x_T|| <= mu x_N }. */
 static inline void tu_project_cone(const double z[3], double mu, double out[3])
@@ -256,7 +256,7 @@ static inline double tu_natural_map(const double *r, const double *u, const doub
     return sqrt(s);
 }
 
-/* Denominators below this are skipped (ALGORITHMS.md section 7). */
+/* Denominators below this are skipped (docs/algorithms.md §3). */
 #define TU_TINY 1.5e-8
 
 static inline double tu_relative(double num, double den) { return den > TU_TINY ? num / den : num; }

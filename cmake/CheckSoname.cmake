@@ -24,3 +24,18 @@ if(NOT CMAKE_MATCH_1 STREQUAL EXPECTED_SONAME)
   message(FATAL_ERROR "CheckSoname: ${LIBRARY} has SONAME '${CMAKE_MATCH_1}', expected '${EXPECTED_SONAME}'")
 endif()
 message(STATUS "CheckSoname: ${LIBRARY}: SONAME ${CMAKE_MATCH_1}")
+
+# -DFORBID_NEEDED=<regex>: fails when a NEEDED entry matches (a build without the fclib
+# feature must not pull libhdf5 into the engines that link it).
+if(FORBID_NEEDED)
+  if(NOT READELF)
+    message(FATAL_ERROR "CheckSoname: FORBID_NEEDED needs readelf")
+  endif()
+  string(REGEX MATCHALL "\\(NEEDED\\)[^\n]*\\[[^]\n]*\\]" _needed "${_out}")
+  foreach(_n IN LISTS _needed)
+    if(_n MATCHES "${FORBID_NEEDED}")
+      message(FATAL_ERROR "CheckSoname: ${LIBRARY} needs a forbidden library: ${_n}")
+    endif()
+  endforeach()
+  message(STATUS "CheckSoname: no NEEDED entry matches '${FORBID_NEEDED}'")
+endif()

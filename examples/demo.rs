@@ -35,7 +35,7 @@ const MARGIN: f64 = 0.01;
 const WARM_RADIUS: f64 = 0.02;
 /// Half width of the container (m).
 const HALF_WIDTH: f64 = 2.0;
-/// Solver tolerance (stats.error, ALGORITHMS.md section 7) and iteration cap.
+/// Solver tolerance (stats.error, docs/algorithms.md §3) and iteration cap.
 const TOLERANCE: f64 = 1e-8;
 const MAX_ITERATIONS: usize = 20_000;
 

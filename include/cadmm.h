@@ -133,7 +133,7 @@ typedef struct cadmm_stats {
      */
     uint64_t iterations;
     /**
-     * Final error measure (ALGORITHMS.md section 7).
+     * Final error measure (docs/algorithms.md §3).
      */
     double error;
     /**
@@ -289,6 +289,15 @@ extern "C" {
 const char *cadmm_version(void);
 
 /**
+ * The detailed message of the last call that failed on the calling thread, e.g.
+ * "invalid CSC matrix M: row index 7 out of range in column 2"; "" when none has failed.
+ * Every function returning a `cadmm_result` other than `CADMM_OK` sets it first; a
+ * successful call leaves it unchanged. The string belongs to the library and stays valid
+ * until the next failing call on the same thread; copy it to keep it. Never free it.
+ */
+const char *cadmm_last_error(void);
+
+/**
  * A static, NUL-terminated English description of a result code; "unknown result code"
  * for a value that is not a `CADMM_OK`/`CADMM_ERR_*` code. Never free it.
  */
@@ -363,14 +372,15 @@ cadmm_result cadmm_problem_write_fclib(const struct cadmm_problem *p, const char
 
 /**
  * Computes the error measure of a candidate solution (the one `cadmm_solver_solve` stops
- * on; ALGORITHMS.md section 7), from any source.
+ * on; docs/algorithms.md §3), from any source.
  *
  * `r` has `3 n_contacts` entries. For a global problem `v` (`n` entries) is required and
  * `u` is recomputed as `H^T v + w`; for a local problem `v` is ignored (may be NULL) and
  * `u` is recomputed as `W r + q`. `u` is accepted for symmetry with
- * `cadmm_solver_get_solution` and never read (may be NULL). Joint multipliers are not
- * passed here: for a global problem with joints the equation residual omits `G lambda`.
- * A non-finite `r` or `v` gives an infinite error (not a failure). `*error` is written on
+ * `cadmm_solver_get_solution` and never read (may be NULL). For a global problem with
+ * joints, the multipliers are recomputed as the least-squares solution of
+ * `G lambda = M v - H r - f` (the best ones for this `r` and `v`), and the joint residual
+ * `||G^T v + b||` is part of the error (docs/algorithms.md §3.2). A non-finite `r` or `v` gives an infinite error (not a failure). `*error` is written on
  * success only. Errors: `CADMM_ERR_NULL_POINTER`.
  */
 cadmm_result cadmm_problem_error(const struct cadmm_problem *p,
@@ -527,6 +537,16 @@ cadmm_result cadmm_solver_get_solution(const struct cadmm_solver *sv,
                                        double *r,
                                        double *u,
                                        double *v);
+
+/**
+ * Copies the joint multipliers `lambda` of the current solution (`p` entries, the number of
+ * columns of the `G` given to `cadmm_problem_set_joints`), so that `M v = H r + G lambda + f`.
+ * `*n_joints` (may be NULL) receives `p`; `lambda` may be NULL to ask for `p` only. A
+ * problem without joints has `p = 0`. Errors: `CADMM_ERR_NULL_POINTER` (`sv`).
+ */
+cadmm_result cadmm_solver_get_joint_multipliers(const struct cadmm_solver *sv,
+                                                double *lambda,
+                                                size_t *n_joints);
 
 /**
  * Fills `*out` with the statistics of the last solve; set `out->struct_size =

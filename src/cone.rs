@@ -38,10 +38,16 @@ pub fn project_dual_cone(z: [f64; 3], mu: f64) -> [f64; 3] {
     [mu * c, s * z[1], s * z[2]]
 }
 
+/// The De Saxce term of one contact, `mu ||u_T||`: the only place it is computed.
+#[inline]
+pub fn de_saxce_term(u: [f64; 3], mu: f64) -> f64 {
+    mu * (u[1] * u[1] + u[2] * u[2]).sqrt()
+}
+
 /// De Saxce correction of one contact: `u + (mu ||u_T||, 0, 0)`.
 #[inline]
 pub fn de_saxce(u: [f64; 3], mu: f64) -> [f64; 3] {
-    [u[0] + mu * (u[1] * u[1] + u[2] * u[2]).sqrt(), u[1], u[2]]
+    [u[0] + de_saxce_term(u, mu), u[1], u[2]]
 }
 
 /// Reads contact `i` of a stacked vector.

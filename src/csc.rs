@@ -303,10 +303,11 @@ impl CscMatrix {
         Some(worst)
     }
 
-    /// True when the matrix is square and `max |A - A^T| <= rel_tol * max |A|`.
-    pub fn is_symmetric(&self, rel_tol: f64) -> bool {
+    /// True when the matrix is square and symmetric up to round-off:
+    /// `max |A - A^T| <= SYMMETRY_TOL * max |A|`. Decides Cholesky against LU.
+    pub fn is_symmetric(&self) -> bool {
         let scale = self.values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-        self.asymmetry().is_some_and(|a| a <= rel_tol * scale)
+        self.asymmetry().is_some_and(|a| a <= SYMMETRY_TOL * scale)
     }
 
     /// Dense column-major copy (small matrices only).
@@ -320,6 +321,10 @@ impl CscMatrix {
         d
     }
 }
+
+/// Relative asymmetry up to which a matrix counts as symmetric (round-off of assembled
+/// mass and Delassus matrices, not the real asymmetry some FCLib files carry).
+pub const SYMMETRY_TOL: f64 = 1e-12;
 
 /// Euclidean norm.
 pub fn norm2(x: &[f64]) -> f64 {

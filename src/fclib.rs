@@ -242,3 +242,28 @@ pub fn write_solution(path: impl AsRef<Path>, s: &Solution) -> Result<(), Error>
     }
     Ok(())
 }
+
+/// Reads `/solution/{r, u, v, l}` (written by [`write_solution`] or by another solver in the
+/// same layout); `u`, `v` and `lambda` are empty when absent, `r` is required.
+pub fn read_solution(path: impl AsRef<Path>) -> Result<Solution, Error> {
+    let path = path.as_ref();
+    let file = File::open(path).map_err(|e| io(path, e))?;
+    let g = file.group("solution").map_err(|e| io(path, e))?;
+    let vector = |name: &str| -> Result<Vec<f64>, Error> {
+        if !g.link_exists(name) {
+            return Ok(Vec::new());
+        }
+        g.dataset(name)
+            .and_then(|d| d.read_raw::<f64>())
+            .map_err(|e| io(path, format!("/solution/{name}: {e}")))
+    };
+    if !g.link_exists("r") {
+        return Err(io(path, "no /solution/r"));
+    }
+    Ok(Solution {
+        r: vector("r")?,
+        u: vector("u")?,
+        v: vector("v")?,
+        lambda: vector("l")?,
+    })
+}

@@ -19,32 +19,32 @@
 // One problem or solver lives per simulation; its size does not matter, boxing would.
 #![allow(clippy::large_enum_variant)]
 
+// Stable Rust API: the re-exports below, the engine extension API in [`admm`], the error
+// measure in [`measure`], FCLib I/O in [`fclib`] and the C API in [`ffi`]. Everything else is
+// internal and may change between versions.
 pub mod admm;
-/// Seed 001 analysis: stationary Anderson acceleration, optimal coefficients, spectra of `q'`.
-pub mod analysis;
-pub mod cone;
-pub mod contact;
-pub mod csc;
-pub mod error;
+mod cone;
+mod contact;
+mod csc;
+mod error;
 #[cfg(feature = "fclib")]
 pub mod fclib;
-/// The C API (`include/cadmm.h`): opaque handles, result codes, panic boundary.
+/// The C API (`include/cadmm.h`): opaque handles, result codes, panic boundary. From Rust,
+/// use the types re-exported at the crate root instead.
 pub mod ffi;
-pub mod linsys;
+mod linsys;
 pub mod measure;
-pub mod problem;
-pub mod settings;
-pub mod solver;
-pub mod stats;
-/// Seed 001 test problems (ridge, logistic, total variation, lasso, NNLS, constrained
-/// logistic) as engine plug-ins.
-pub mod test_problems;
+mod problem;
+mod settings;
+mod solver;
+mod stats;
 
 pub use admm::SUpdate;
+pub use cone::{de_saxce, project_cone, project_dual_cone};
 pub use contact::InitialRho;
 pub use csc::CscMatrix;
 pub use error::{Error, Status};
-pub use problem::{GlobalProblem, LocalProblem, Problem};
-pub use settings::{Settings, VariantChoice};
+pub use problem::{GlobalProblem, Joints, LocalProblem, Problem};
+pub use settings::{Resolved, Settings, VariantChoice};
 pub use solver::{Solution, Solver};
 pub use stats::{Stats, TracePoint};

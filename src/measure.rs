@@ -1,16 +1,24 @@
-//! The error measure every test and benchmark uses (it matches Siconos numerics):
+//! The error measure every test and benchmark uses (docs/algorithms.md §3; it matches
+//! Siconos numerics). This is its only implementation: the splittings call it through a
+//! [`MeasureWork`] so that it allocates nothing inside the iteration.
 //!
-//! global: `||-M v + H r + f|| / max(||f||, ||M v||, ||H r||)
-//!          + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||)`, `u = H^T v + w`;
+//! global: `||-M v + H r + G lambda + f|| / max(||f||, ||M v||, ||H r + G lambda||)
+//!          + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||)
+//!          + ||G^T v + b|| / max(||G^T v||, ||b||)`, `u = H^T v + w` (joint terms only with
+//!          joints);
 //! local:  `||r - P_K(r - (u + Phi(u)))|| / ||q||`, `u = W r + q`.
 //!
-//! Each denominator is skipped when it is below 1.5e-8. A non-finite input gives `inf`.
+//! Each denominator is skipped when it is below [`TINY`]. A non-finite input gives `inf`.
+//! Joint multipliers that are not supplied (an empty `lambda`) are recomputed as the
+//! least-squares solution of `G lambda = M v - H r - f`: the best multipliers for the given
+//! `(r, v)`, so the measure then says whether `(r, v)` can be completed into a solution.
 
 use crate::cone::{de_saxce, get3, project_cone};
 use crate::csc::norm2;
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
 
-const TINY: f64 = 1.5e-8;
+/// Denominators below this are skipped (the residual is taken as it is).
+pub const TINY: f64 = 1.5e-8;
 
 fn relative(num: f64, den: f64) -> f64 {
     if den > TINY {
@@ -36,53 +44,136 @@ fn all_finite(x: &[f64]) -> bool {
     x.iter().all(|v| v.is_finite())
 }
 
-/// Error of a global solution `(r, v)`; `u` is recomputed as `H^T v + w`.
-///
-/// With joints, `lambda` (their multipliers) joins the equation residual
-/// `-M v + H r + G lambda + f`, and the joint residual `||G^T v + b||` (relative to
-/// `max(||G^T v||, ||b||)`) is added. Without joints `lambda` is ignored.
+/// Work vectors of the measure, sized once for one problem's dimensions.
+#[derive(Debug, Clone, Default)]
+pub struct MeasureWork {
+    mv: Vec<f64>,
+    hr: Vec<f64>,
+    u: Vec<f64>,
+    gv: Vec<f64>,
+}
+
+impl MeasureWork {
+    /// Work vectors for `p` (global: `n`, `3 nc` and joint rows; local: `3 nc`).
+    pub fn new(p: &Problem) -> Self {
+        match p {
+            Problem::Global(g) => Self {
+                mv: vec![0.0; g.n()],
+                hr: vec![0.0; g.n()],
+                u: vec![0.0; g.w.len()],
+                gv: vec![0.0; g.joints.as_ref().map_or(0, |j| j.b.len())],
+            },
+            Problem::Local(l) => Self {
+                u: vec![0.0; l.q.len()],
+                ..Self::default()
+            },
+        }
+    }
+
+    /// Resizes for `p` (no allocation when the sizes already fit).
+    fn fit_global(&mut self, p: &GlobalProblem) {
+        let np = p.joints.as_ref().map_or(0, |j| j.b.len());
+        self.mv.resize(p.n(), 0.0);
+        self.hr.resize(p.n(), 0.0);
+        self.u.resize(p.w.len(), 0.0);
+        self.gv.resize(np, 0.0);
+    }
+}
+
+/// Error of a global solution `(r, v)` with joint multipliers `lambda` (ignored without
+/// joints; recomputed by least squares when empty). Allocates its work vectors.
 pub fn global_error(p: &GlobalProblem, r: &[f64], v: &[f64], lambda: &[f64]) -> f64 {
+    let mut work = MeasureWork::default();
+    global_error_with(p, r, v, lambda, &mut work)
+}
+
+/// [`global_error`] with caller-owned work vectors: no allocation when `work` fits `p`
+/// and `lambda` is supplied (or there are no joints).
+pub fn global_error_with(
+    p: &GlobalProblem,
+    r: &[f64],
+    v: &[f64],
+    lambda: &[f64],
+    work: &mut MeasureWork,
+) -> f64 {
     if !all_finite(r) || !all_finite(v) || !all_finite(lambda) {
         return f64::INFINITY;
     }
-    let n = p.n();
-    let mut mv = vec![0.0; n];
-    p.m.mul_vec(1.0, v, 0.0, &mut mv);
-    let mut hr = vec![0.0; n];
-    p.h.mul_vec(1.0, r, 0.0, &mut hr);
+    work.fit_global(p);
+    p.m.mul_vec(1.0, v, 0.0, &mut work.mv);
+    p.h.mul_vec(1.0, r, 0.0, &mut work.hr);
     let mut joint_error = 0.0;
     if let Some(j) = &p.joints {
         if lambda.len() == j.b.len() {
-            j.g.mul_vec(1.0, lambda, 1.0, &mut hr);
+            j.g.mul_vec(1.0, lambda, 1.0, &mut work.hr);
+        } else {
+            let ls = least_squares_multipliers(p, &work.mv, &work.hr);
+            j.g.mul_vec(1.0, &ls, 1.0, &mut work.hr);
         }
-        let mut gv = vec![0.0; j.b.len()];
-        j.g.mul_t_vec(1.0, v, 0.0, &mut gv);
-        let scale = norm2(&gv).max(norm2(&j.b));
-        let res: Vec<f64> = gv.iter().zip(&j.b).map(|(a, b)| a + b).collect();
-        joint_error = relative(norm2(&res), scale);
+        j.g.mul_t_vec(1.0, v, 0.0, &mut work.gv);
+        let scale = norm2(&work.gv).max(norm2(&j.b));
+        let res: f64 = work
+            .gv
+            .iter()
+            .zip(&j.b)
+            .map(|(a, b)| (a + b) * (a + b))
+            .sum();
+        joint_error = relative(res.sqrt(), scale);
     }
-    let eq: Vec<f64> = (0..n).map(|i| -mv[i] + hr[i] + p.f[i]).collect();
-    let e1 = relative(norm2(&eq), norm2(&p.f).max(norm2(&mv)).max(norm2(&hr)));
-    let mut u = p.w.clone();
-    p.h.mul_t_vec(1.0, v, 1.0, &mut u);
+    let mut eq = 0.0;
+    for i in 0..p.n() {
+        eq += (-work.mv[i] + work.hr[i] + p.f[i]).powi(2);
+    }
+    let scale = norm2(&p.f).max(norm2(&work.mv)).max(norm2(&work.hr));
+    let e1 = relative(eq.sqrt(), scale);
+    work.u.copy_from_slice(&p.w);
+    p.h.mul_t_vec(1.0, v, 1.0, &mut work.u);
     let e2 = relative(
-        complementarity_residual(r, &u, &p.mu),
-        norm2(&u).max(norm2(r)),
+        complementarity_residual(r, &work.u, &p.mu),
+        norm2(&work.u).max(norm2(r)),
     );
     e1 + e2 + joint_error
 }
 
-/// Error of a local solution `r`; `u` is recomputed as `W r + q`.
+/// Least-squares joint multipliers: `argmin ||G lambda - (M v - H r - f)||`, by an SVD of
+/// `G` (rank-deficient `G` allowed; minimum-norm solution).
+fn least_squares_multipliers(p: &GlobalProblem, mv: &[f64], hr: &[f64]) -> Vec<f64> {
+    let Some(j) = &p.joints else {
+        return Vec::new();
+    };
+    let (n, np) = (p.n(), j.b.len());
+    let mut g = nalgebra::DMatrix::<f64>::zeros(n, np);
+    for k in 0..np {
+        for (i, x) in j.g.col(k) {
+            g[(i, k)] = x;
+        }
+    }
+    let rhs = nalgebra::DVector::from_iterator(n, (0..n).map(|i| mv[i] - hr[i] - p.f[i]));
+    let svd = g.svd(true, true);
+    let eps = 1e-13 * svd.singular_values.max().max(f64::MIN_POSITIVE);
+    svd.solve(&rhs, eps)
+        .map(|x| x.iter().copied().collect())
+        .unwrap_or_else(|_| vec![0.0; np])
+}
+
+/// Error of a local solution `r`; `u` is recomputed as `W r + q`. Allocates its work vector.
 pub fn local_error(p: &LocalProblem, r: &[f64]) -> f64 {
+    let mut work = MeasureWork::default();
+    local_error_with(p, r, &mut work)
+}
+
+/// [`local_error`] with caller-owned work vectors (no allocation when `work` fits `p`).
+pub fn local_error_with(p: &LocalProblem, r: &[f64], work: &mut MeasureWork) -> f64 {
     if !all_finite(r) {
         return f64::INFINITY;
     }
-    let mut u = p.q.clone();
-    p.w.mul_vec(1.0, r, 1.0, &mut u);
-    relative(complementarity_residual(r, &u, &p.mu), norm2(&p.q))
+    work.u.resize(p.q.len(), 0.0);
+    work.u.copy_from_slice(&p.q);
+    p.w.mul_vec(1.0, r, 1.0, &mut work.u);
+    relative(complementarity_residual(r, &work.u, &p.mu), norm2(&p.q))
 }
 
-/// Error of a solution of either form (`v` is ignored for a local problem).
+/// Error of a solution of either form (`v` and `lambda` are ignored for a local problem).
 pub fn problem_error(p: &Problem, r: &[f64], v: &[f64], lambda: &[f64]) -> f64 {
     match p {
         Problem::Global(g) => global_error(g, r, v, lambda),

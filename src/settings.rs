@@ -1,6 +1,6 @@
 //! Solver settings, validated when a solver is built.
 
-use crate::admm::{SUpdate, Variant};
+use crate::admm::{EngineSettings, SUpdate, Variant};
 use crate::contact::InitialRho;
 use crate::error::Error;
 
@@ -14,7 +14,7 @@ pub enum VariantChoice {
 }
 
 impl VariantChoice {
-    /// Parses `auto` or a seed 000 name.
+    /// Parses `auto` or a variant name (docs/algorithms.md §6.5).
     pub fn from_name(name: &str) -> Result<Self, Error> {
         if name == "auto" {
             Ok(VariantChoice::Auto)
@@ -27,7 +27,7 @@ impl VariantChoice {
 /// Settings of a solve.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
-    /// Target of the error measure (ALGORITHMS.md section 7). Default 1e-8.
+    /// Target of the error measure (docs/algorithms.md §3). Default 1e-8.
     pub tolerance: f64,
     /// Iteration limit. Default 100000.
     pub max_iterations: usize,
@@ -72,6 +72,20 @@ pub const AUTO_VARIANT: &str = "vp-N-He";
 pub const AUTO_ANDERSON: usize = 5;
 /// Initial rho rule `auto` uses.
 pub const AUTO_INITIAL_RHO: InitialRho = InitialRho::Acary;
+
+/// The error measure is evaluated every this many iterations (and whenever the cheap
+/// residual test passes): it costs a few matrix-vector products, an iteration about one solve.
+pub const ERROR_CHECK_INTERVAL: usize = 5;
+
+/// rho stays within `[rho0 / RHO_RANGE, rho0 * RHO_RANGE]`: beyond that the factorization of
+/// `M + rho H H^T` (or `W + rho I`) loses the other term to round-off.
+pub const RHO_RANGE: f64 = 1e8;
+
+/// Absolute tolerance of the residual test at error tolerance `tol`: 1e-6 at `tol = 1e-3`,
+/// scaled with `tol` below that (the relative part is `tol` itself).
+fn residual_eps_abs(tol: f64) -> f64 {
+    1e-6 * tol.min(1e-3) / 1e-3
+}
 
 /// Settings with every default resolved.
 #[derive(Debug, Clone, PartialEq)]
@@ -125,6 +139,25 @@ impl Settings {
             }
         }
         Ok(())
+    }
+
+    /// What the engine loop runs with.
+    pub(crate) fn engine_settings(&self, resolved: &Resolved) -> EngineSettings {
+        EngineSettings {
+            tolerance: self.tolerance,
+            max_iterations: self.max_iterations,
+            time_limit: self.time_limit,
+            variant: resolved.variant,
+            anderson: resolved.anderson,
+            anderson_interval: self.anderson_interval,
+            s_update: self.s_update,
+            eps_abs: residual_eps_abs(self.tolerance),
+            eps_rel: self.tolerance,
+            check_every: ERROR_CHECK_INTERVAL,
+            trace: self.trace,
+            rho_range: RHO_RANGE,
+            rho_change_factor: resolved.rho_change_factor,
+        }
     }
 
     /// Resolves `auto` and the per-variant defaults.

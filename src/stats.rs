@@ -9,7 +9,7 @@ pub struct Stats {
     pub status: Status,
     /// ADMM iterations done.
     pub iterations: usize,
-    /// Final error measure (ALGORITHMS.md section 7).
+    /// Final error measure (docs/algorithms.md §3).
     pub error: f64,
     /// Final primal residual `||A x - y - c||`.
     pub primal_residual: f64,

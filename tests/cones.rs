@@ -1,10 +1,10 @@
-//! Property tests of the cone projections (ALGORITHMS.md section 2): idempotence, Moreau
+//! Property tests of the cone projections (docs/algorithms.md §2): idempotence, Moreau
 //! decomposition, non-expansiveness, agreement with an independent geometric construction,
 //! over mu in {0, 1e-8, 0.3, 1, 1e8}.
 
 mod common;
 
-use cadmm::cone::{project_cone, project_dual_cone};
+use cadmm::{project_cone, project_dual_cone};
 use common::{ray_projection, Rng};
 
 const MUS: [f64; 5] = [0.0, 1e-8, 0.3, 1.0, 1e8];

@@ -21,7 +21,7 @@ fn solve(p: &Problem, settings: Settings) -> (Status, f64, usize) {
     let s = solver.solution();
     (
         status,
-        common::error(p, &s.r, &s.v),
+        common::error(p, &s.r, &s.v, &s.lambda),
         solver.stats().iterations,
     )
 }
@@ -168,7 +168,7 @@ fn warm_start_from_a_solution_converges_at_once() {
         solver.stats().iterations
     );
     let w = solver.solution();
-    assert!(common::error(&p, &w.r, &w.v) <= TOL);
+    assert!(common::error(&p, &w.r, &w.v, &w.lambda) <= TOL);
 }
 
 #[test]
@@ -194,7 +194,7 @@ fn numeric_update_with_the_same_pattern() {
     solver.update(q.clone()).unwrap();
     assert_eq!(solver.solve().unwrap(), Status::Solved);
     let s = solver.solution();
-    assert!(common::error(&q, &s.r, &s.v) <= TOL);
+    assert!(common::error(&q, &s.r, &s.v, &s.lambda) <= TOL);
 }
 
 #[test]
@@ -233,7 +233,7 @@ fn anderson_interval_and_trace_statistics() {
             "interval {interval}"
         );
         let sol = solver.solution();
-        assert!(common::error(&p, &sol.r, &sol.v) <= TOL);
+        assert!(common::error(&p, &sol.r, &sol.v, &sol.lambda) <= TOL);
         let (trace, stats) = (solver.trace(), solver.stats());
         assert_eq!(
             trace.len(),

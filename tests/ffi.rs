@@ -1268,19 +1268,44 @@ fn joints() {
             cadmm_problem_set_joints(p, &g.c(), [-0.1].as_ptr()),
             CADMM_OK
         );
-        // The status is not checked: with joints the core's stopping test does not reach
-        // the tolerance yet (the sign of lambda, see the FFI report); the iterate is right.
+        // Exact answer: v = (0, 0.1, 0), sliding along T1, so friction sits on the cone's
+        // edge against the motion, r = (9.81, -0.5 * 9.81, 0), and the joint carries the rest
+        // of the tangential balance 0.1 = r_1 + lambda + f_1: lambda = 0.1 + 4.905 - 1.
+        let (r_exact, v_exact, lambda_exact) = ([9.81, -4.905, 0.0], [0.0, 0.1, 0.0], 4.005);
         let s = settings();
-        assert_eq!(cadmm_settings_set_max_iterations(s, 2000), CADMM_OK);
         let sv = solver(p, s);
         let mut status = -1;
         assert_eq!(cadmm_solver_solve(sv, &mut status), CADMM_OK);
-        let (mut r, mut v) = ([0.0; 3], [0.0; 3]);
+        assert_eq!(status, CADMM_STATUS_SOLVED, "{:?}", full_stats(sv));
+        let (mut r, mut v, mut lambda, mut np) = ([0.0; 3], [0.0; 3], [0.0; 1], 0usize);
         cadmm_solver_get_solution(sv, r.as_mut_ptr(), null_mut(), v.as_mut_ptr());
-        assert!((v[1] - 0.1).abs() < 1e-6, "{v:?}");
-        // Sliding: friction at the cone's edge, opposing the motion.
-        assert!((r[0] - 9.81).abs() < 1e-6, "{r:?}");
-        assert!((r[1] + 0.5 * 9.81).abs() < 1e-5, "{r:?}");
+        assert_eq!(
+            cadmm_solver_get_joint_multipliers(sv, lambda.as_mut_ptr(), &mut np),
+            CADMM_OK
+        );
+        assert_eq!(np, 1);
+        for i in 0..3 {
+            assert!((v[i] - v_exact[i]).abs() < 1e-7, "v = {v:?}");
+            assert!((r[i] - r_exact[i]).abs() < 1e-6, "r = {r:?}");
+        }
+        assert!(
+            (lambda[0] - lambda_exact).abs() < 1e-6,
+            "lambda = {lambda:?}"
+        );
+        // The C API's measure (multipliers recomputed by least squares) accepts the answer
+        // and the exact one, and rejects a perturbed one.
+        let error = |r: &[f64; 3], v: &[f64; 3]| {
+            let mut e = -1.0;
+            assert_eq!(
+                cadmm_problem_error(p, r.as_ptr(), null(), v.as_ptr(), &mut e),
+                CADMM_OK
+            );
+            e
+        };
+        assert!(error(&r, &v) <= 1e-8, "{}", error(&r, &v));
+        assert!(error(&r_exact, &v_exact) <= 1e-12);
+        assert!(error(&r_exact, &[0.0, 0.2, 0.0]) > 1e-3);
+        assert!(error(&[9.81, -4.0, 0.0], &v_exact) > 1e-3);
         cadmm_solver_free(sv);
         cadmm_settings_free(s);
 

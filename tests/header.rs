@@ -44,14 +44,17 @@ fn header_is_up_to_date() {
     );
 }
 
+/// The committed header's version macro (read from the file, not from what this test
+/// generates) names the version of the library linked into this test.
 #[test]
 fn header_version_matches_the_library() {
-    let generated = generate();
-    let line = format!(
-        "#define CADMM_VERSION_STRING \"{}\"",
-        env!("CARGO_PKG_VERSION")
-    );
-    assert!(generated.contains(&line));
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("include/cadmm.h");
+    let committed = std::fs::read_to_string(&path).expect("include/cadmm.h is readable");
+    let header_version = committed
+        .lines()
+        .find_map(|l| l.strip_prefix("#define CADMM_VERSION_STRING \""))
+        .and_then(|rest| rest.strip_suffix('"'))
+        .expect("include/cadmm.h defines CADMM_VERSION_STRING");
     let v = unsafe { std::ffi::CStr::from_ptr(cadmm::ffi::cadmm_version()) };
-    assert_eq!(v.to_str().unwrap(), env!("CARGO_PKG_VERSION"));
+    assert_eq!(v.to_str().unwrap(), header_version);
 }

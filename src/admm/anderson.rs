@@ -1,4 +1,4 @@
-//! Type-II Anderson acceleration AA(m) of a fixed-point map `x -> g(x)` (seed 001, eqs. 9-10).
+//! Type-II Anderson acceleration AA(m) of a fixed-point map `x -> g(x)` (docs/algorithms.md §7).
 //!
 //! With `f = g(x) - x`, the last `m` differences `dF`, `dG` of residuals and images give
 //! `gamma = argmin ||f_k - dF gamma||` and the next point `x = g_k - dG gamma`. The small

@@ -25,9 +25,9 @@ pub struct EngineSettings {
     pub anderson_interval: usize,
     /// When the s parameter is updated.
     pub s_update: SUpdate,
-    /// Absolute tolerance of the seed's residual test (eq. 16).
+    /// Absolute tolerance of the residual test (docs/algorithms.md §8).
     pub eps_abs: f64,
-    /// Relative tolerance of the seed's residual test (eq. 16).
+    /// Relative tolerance of the residual test (docs/algorithms.md §8).
     pub eps_rel: f64,
     /// The error measure is evaluated every this many iterations (and whenever the
     /// residual test passes).
@@ -176,7 +176,7 @@ pub fn run(
         state.ax.copy_from_slice(&ax);
         state.rho = rho;
 
-        // Stopping: the residual test of eq. (16) is a cheap trigger; the decision is the
+        // Stopping: the residual test (docs/algorithms.md §8) is a cheap trigger; the decision is the
         // problem's own error measure, also evaluated periodically.
         // max(||A x||, ||y||): the c-independent part of the primal scale, used three times.
         let xy_scale = norm2(&ax).max(norm2(&y));

@@ -1,5 +1,7 @@
-//! The one ADMM engine. A problem plugs in through [`Splitting`]; the engine owns the loop,
-//! the stopping test, the penalty rules, relaxation/restart and Anderson acceleration.
+//! The one ADMM engine, and its extension API: a problem plugs in by implementing
+//! [`Splitting`] (the contact forms do, and so do the research problems of the crate
+//! `cadmm-research`); the engine owns the loop, the stopping test, the penalty rules,
+//! relaxation/restart and Anderson acceleration.
 //!
 //! Every problem is written as `min f(x) + g(y)  s.t.  A x - y = c` in scaled form, with the
 //! iteration state `(y, zeta)` in the constraint space:
@@ -15,6 +17,8 @@ mod engine;
 mod rho_rule;
 mod variant;
 
+/// Euclidean norm, for plug-ins computing their residuals and scales.
+pub use crate::csc::norm2;
 pub use anderson::Anderson;
 pub use engine::{run, EngineOutcome, EngineSettings, EngineState};
 pub use rho_rule::RhoRule;
@@ -48,7 +52,7 @@ pub trait Splitting {
 /// When the s parameter is updated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SUpdate {
-    /// Every iteration, from the current iterate (seed 000 section 8.2).
+    /// Every iteration, from the current iterate (docs/algorithms.md §5).
     Internal,
     /// After each inner ADMM solve of the convex problem with s fixed (section 8.3).
     External,

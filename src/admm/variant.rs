@@ -1,9 +1,9 @@
-//! The named ADMM variants of seed 000 section 7.3: `cp|vp` x `N|R|RR` x `He|Wohlberg|Spectral`.
+//! The named ADMM variants (docs/algorithms.md §6.5): `cp|vp` x `N|R|RR` x `He|Wohlberg|Spectral`.
 
 use super::RhoRule;
 use crate::error::Error;
 
-/// Over-relaxation of the iteration (seed 000 section 5).
+/// Over-relaxation of the iteration (docs/algorithms.md §6.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Relaxation {
     /// Plain ADMM (`N`).
@@ -14,7 +14,7 @@ pub enum Relaxation {
     NesterovRestart,
 }
 
-/// A penalty rule and a relaxation, with their seed 000 name.
+/// A penalty rule and a relaxation, with their name.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Variant {
     /// Penalty (rho) rule.
@@ -23,7 +23,7 @@ pub struct Variant {
     pub relaxation: Relaxation,
 }
 
-/// The twelve seed 000 names, in the seed's order.
+/// The twelve variant names (docs/algorithms.md §6.5).
 pub const VARIANT_NAMES: [&str; 12] = [
     "cp-N",
     "cp-R",
@@ -40,7 +40,7 @@ pub const VARIANT_NAMES: [&str; 12] = [
 ];
 
 impl Variant {
-    /// Parses a seed 000 name (`cp-N` ... `vp-RR-Spectral`). `auto` is resolved by the solver
+    /// Parses a variant name (docs/algorithms.md §6.5) (`cp-N` ... `vp-RR-Spectral`). `auto` is resolved by the solver
     /// settings, not here.
     pub fn from_name(name: &str) -> Result<Self, Error> {
         let bad = || Error::InvalidSetting {
@@ -78,7 +78,7 @@ impl Variant {
         }
     }
 
-    /// The seed 000 name of this variant.
+    /// The name of this variant.
     pub fn name(&self) -> &'static str {
         let r = match self.relaxation {
             Relaxation::None => 0,

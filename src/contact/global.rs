@@ -4,21 +4,19 @@
 //! quasi-definite system `[[M + rho H H^T, G], [G^T, -delta I]] [v; -lambda] = [.; -b]`
 //! (delta tiny, corrected by one step of iterative refinement).
 
-use super::{de_saxce_shift, initial_shift};
-use crate::admm::Splitting;
+use super::{check_vector, de_saxce_shift, initial_shift, ContactForm};
+use crate::admm::{EngineState, Splitting};
 use crate::cone::{get3, project_dual_cone, set3};
 use crate::csc::norm2;
 use crate::error::Error;
 use crate::linsys::param_matrix::{gram_triplets, triplets};
 use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
-use crate::measure::complementarity_residual;
-use crate::problem::GlobalProblem;
+use crate::measure::{global_error_with, MeasureWork};
+use crate::problem::{GlobalProblem, Problem};
+use crate::solver::Solution;
 
 /// Regularization of the joint block of the quasi-definite system.
 const JOINT_DELTA: f64 = 1e-9;
-
-/// Relative asymmetry above which M is treated as non-symmetric.
-const SYMMETRY_TOL: f64 = 1e-12;
 
 /// The global contact problem as an ADMM splitting.
 pub struct GlobalSplitting {
@@ -32,15 +30,17 @@ pub struct GlobalSplitting {
     c: Vec<f64>,
     phi: Vec<f64>,
     work_n: Vec<f64>,
-    work_n2: Vec<f64>,
     work_m: Vec<f64>,
+    /// Impulse and joint multipliers of the current iterate, for the error measure.
     r: Vec<f64>,
+    lambda: Vec<f64>,
+    measure: MeasureWork,
 }
 
 impl GlobalSplitting {
     /// Analyses and factorizes `M` (to check it is positive definite) and prepares the
     /// v-update system.
-    pub fn new(p: GlobalProblem) -> Result<Self, Error> {
+    pub(crate) fn new(p: GlobalProblem) -> Result<Self, Error> {
         let n = p.n();
         let m = 3 * p.n_contacts();
         // M alone first: a clear error when M is not positive definite.
@@ -52,6 +52,7 @@ impl GlobalSplitting {
         let mut phi = vec![0.0; m];
         initial_shift(&p.mu, p.h.norm_fro(), &mut phi);
         let c = p.w.iter().zip(&phi).map(|(w, s)| -w - s).collect();
+        let measure = MeasureWork::new(&Problem::Global(p.clone()));
         Ok(Self {
             mass,
             factor,
@@ -61,56 +62,33 @@ impl GlobalSplitting {
             c,
             phi,
             work_n: vec![0.0; n],
-            work_n2: vec![0.0; n],
             work_m: vec![0.0; m],
             r: vec![0.0; m],
+            lambda: vec![0.0; dim - n],
+            measure,
             p,
         })
     }
 
-    /// Takes new values on the same sizes and patterns: numeric refactorization only.
-    pub fn update(&mut self, p: GlobalProblem) -> Result<(), Error> {
-        let (matrix, _) = system_matrix(&p);
-        self.mass.replace_matrix(mass_matrix(&p))?;
-        self.mass.set_rho(0.0)?;
-        self.factor.replace_matrix(matrix)?;
-        self.p = p;
-        self.reset_shift();
-        Ok(())
+    /// Joint multipliers of the last x-step into `out` (the system is solved for
+    /// `-lambda`, see the module comment).
+    fn lambda_into(sol: &[f64], n: usize, out: &mut [f64]) {
+        for (o, x) in out.iter_mut().zip(&sol[n..]) {
+            *o = -x;
+        }
     }
 
-    /// The problem.
-    pub fn problem(&self) -> &GlobalProblem {
-        &self.p
-    }
-
-    /// Velocity of the last x-step.
-    pub fn v(&self) -> &[f64] {
-        &self.sol[..self.p.n()]
-    }
-
-    /// Joint multipliers of the last x-step (empty without joints).
-    pub fn lambda(&self) -> Vec<f64> {
-        // The system is solved for -lambda (see the module comment).
-        self.sol[self.p.n()..].iter().map(|x| -x).collect()
-    }
-
-    /// Numeric factorizations so far.
-    pub fn refactorizations(&self) -> usize {
-        self.factor.refactorizations() + self.mass.refactorizations()
-    }
-
-    /// Restarts the De Saxce shift from the initial guess of eq. (61).
-    pub fn reset_shift(&mut self) {
+    /// Restarts the De Saxce shift from its initial guess (docs/algorithms.md §5).
+    fn reset_shift(&mut self) {
         initial_shift(&self.p.mu, self.p.h.norm_fro(), &mut self.phi);
         self.refresh_c();
     }
 
     /// Sets the De Saxce shift from a velocity (warm start).
-    pub fn shift_from_velocity(&mut self, v: &[f64]) {
-        let mut u = self.p.w.clone();
-        self.p.h.mul_t_vec(1.0, v, 1.0, &mut u);
-        de_saxce_shift(&u, &self.p.mu, &mut self.phi);
+    fn shift_from_velocity(&mut self, v: &[f64]) {
+        self.work_m.copy_from_slice(&self.p.w);
+        self.p.h.mul_t_vec(1.0, v, 1.0, &mut self.work_m);
+        de_saxce_shift(&self.work_m, &self.p.mu, &mut self.phi);
         self.refresh_c();
     }
 
@@ -133,7 +111,7 @@ fn mass_matrix(p: &GlobalProblem) -> ParamMatrix {
 fn system_matrix(p: &GlobalProblem) -> (ParamMatrix, FactorKind) {
     let n = p.n();
     let gram = gram_triplets(&p.h);
-    let symmetric = p.m.is_symmetric(SYMMETRY_TOL);
+    let symmetric = p.m.is_symmetric();
     match &p.joints {
         None if symmetric => (
             ParamMatrix::from_triplets(n, triplets(&p.m), gram, true),
@@ -238,53 +216,192 @@ impl Splitting for GlobalSplitting {
         change
     }
 
-    fn error(&mut self, ax: &[f64], _y: &[f64], zeta: &[f64], rho: f64) -> f64 {
-        let n = self.p.n();
+    fn error(&mut self, _ax: &[f64], _y: &[f64], zeta: &[f64], rho: f64) -> f64 {
         for i in 0..zeta.len() {
             self.r[i] = -rho * zeta[i];
         }
-        let v = &self.sol[..n];
-        if !v.iter().chain(self.r.iter()).all(|x| x.is_finite()) {
-            return f64::INFINITY;
-        }
-        // Equation residual -M v + H r + G lambda + f.
-        self.p.m.mul_vec(1.0, v, 0.0, &mut self.work_n);
-        self.p.h.mul_vec(1.0, &self.r, 0.0, &mut self.work_n2);
-        let mut joint_error = 0.0;
-        if let Some(j) = &self.p.joints {
-            let minus_lambda = &self.sol[n..];
-            j.g.mul_vec(-1.0, minus_lambda, 1.0, &mut self.work_n2);
-            let mut res = 0.0f64;
-            let mut gv_sq = 0.0f64;
-            for (k, b) in j.b.iter().enumerate() {
-                let gv: f64 = j.g.col(k).map(|(i, g)| g * v[i]).sum();
-                res += (gv + b).powi(2);
-                gv_sq += gv * gv;
-            }
-            let scale = gv_sq.sqrt().max(norm2(&j.b));
-            joint_error = if scale > 1.5e-8 {
-                res.sqrt() / scale
-            } else {
-                res.sqrt()
-            };
-        }
-        let (mv, hr) = (norm2(&self.work_n), norm2(&self.work_n2));
-        let mut eq = 0.0;
-        for i in 0..n {
-            eq += (-self.work_n[i] + self.work_n2[i] + self.p.f[i]).powi(2);
-        }
-        let scale = norm2(&self.p.f).max(mv).max(hr);
-        let e1 = if scale > 1.5e-8 {
-            eq.sqrt() / scale
-        } else {
-            eq.sqrt()
+        let n = self.p.n();
+        Self::lambda_into(&self.sol, n, &mut self.lambda);
+        global_error_with(
+            &self.p,
+            &self.r,
+            &self.sol[..n],
+            &self.lambda,
+            &mut self.measure,
+        )
+    }
+}
+
+impl ContactForm for GlobalSplitting {
+    fn update(&mut self, p: Problem) -> Result<(), Error> {
+        let Problem::Global(p) = p else {
+            return Err(Error::Unsupported(
+                "update: the new problem is local, the solver was built for a global one".into(),
+            ));
         };
-        for i in 0..ax.len() {
-            self.work_m[i] = ax[i] + self.p.w[i];
+        for (field, expected, found) in [
+            ("n", self.p.n(), p.n()),
+            ("n_contacts", self.p.n_contacts(), p.n_contacts()),
+        ] {
+            if expected != found {
+                return Err(Error::Dimension {
+                    field,
+                    expected,
+                    found,
+                });
+            }
         }
-        let comp = complementarity_residual(&self.r, &self.work_m, &self.p.mu);
-        let scale = norm2(&self.work_m).max(norm2(&self.r));
-        let e2 = if scale > 1.5e-8 { comp / scale } else { comp };
-        e1 + e2 + joint_error
+        let (matrix, _) = system_matrix(&p);
+        self.mass.replace_matrix(mass_matrix(&p))?;
+        self.mass.set_rho(0.0)?;
+        self.factor.replace_matrix(matrix)?;
+        self.p = p;
+        self.reset_shift();
+        Ok(())
+    }
+
+    fn n_velocities(&self) -> usize {
+        self.p.n()
+    }
+
+    fn cold_start(&mut self, state: &mut EngineState) {
+        state.y.fill(0.0);
+        state.zeta.fill(0.0);
+        self.reset_shift();
+    }
+
+    fn warm_start(
+        &mut self,
+        r: &[f64],
+        v: Option<&[f64]>,
+        state: &mut EngineState,
+    ) -> Result<(), Error> {
+        if let Some(v) = v {
+            check_vector("v", v, self.p.n())?;
+        }
+        // r = -rho zeta at a solution.
+        for (z, ri) in state.zeta.iter_mut().zip(r) {
+            *z = -ri / state.rho;
+        }
+        state.y.fill(0.0);
+        let Some(v) = v else {
+            self.reset_shift();
+            return Ok(());
+        };
+        // u~ = P_K*(H^T v + w + Phi(u)), the shift taken from the same u.
+        self.shift_from_velocity(v);
+        self.p.h.mul_t_vec(1.0, v, 0.0, &mut self.work_m);
+        for (i, &mu) in self.p.mu.iter().enumerate() {
+            let a = get3(&self.work_m, i);
+            let c = get3(&self.c, i);
+            set3(
+                &mut state.y,
+                i,
+                project_dual_cone([a[0] - c[0], a[1] - c[1], a[2] - c[2]], mu),
+            );
+        }
+        Ok(())
+    }
+
+    fn recover(&mut self, state: &EngineState) -> Result<(), Error> {
+        let mut ax = vec![0.0; state.ax.len()];
+        self.set_rho(state.rho)?;
+        self.x_step(&state.y, &state.zeta, state.rho, &mut ax);
+        Ok(())
+    }
+
+    fn solution(&self, state: &EngineState) -> Solution {
+        let n = self.p.n();
+        let r: Vec<f64> = state.zeta.iter().map(|z| -state.rho * z).collect();
+        let v = self.sol[..n].to_vec();
+        let mut u = self.p.w.clone();
+        self.p.h.mul_t_vec(1.0, &v, 1.0, &mut u);
+        let mut lambda = vec![0.0; self.sol.len() - n];
+        Self::lambda_into(&self.sol, n, &mut lambda);
+        Solution { r, u, v, lambda }
+    }
+
+    fn refactorizations(&self) -> usize {
+        self.factor.refactorizations() + self.mass.refactorizations()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::csc::CscMatrix;
+    use nalgebra::{DMatrix, DVector};
+
+    /// Three bodies' worth of velocities (n = 4), two contacts, one joint row with b != 0.
+    fn joint_problem() -> GlobalProblem {
+        #[rustfmt::skip]
+        let m = CscMatrix::from_dense("M", 4, 4, &[
+            2.0, 0.0, 0.0, 0.0,
+            0.0, 3.0, 0.5, 0.0,
+            0.0, 0.5, 4.0, 0.0,
+            0.0, 0.0, 0.0, 5.0,
+        ]).unwrap();
+        #[rustfmt::skip]
+        let h = CscMatrix::from_dense("H", 4, 6, &[
+            1.0, 0.0, 0.1, 0.0, 0.0, 1.0,
+            0.2, 1.0, 0.0, 0.0, 0.5, 0.0,
+            0.0, 0.3, 1.0, 0.4, 0.0, 0.0,
+            0.0, 0.0, 0.0, 1.0, 1.0, 0.7,
+        ]).unwrap();
+        let g = CscMatrix::from_dense("G", 4, 1, &[1.0, -1.0, 0.5, 0.0]).unwrap();
+        GlobalProblem::new(
+            m,
+            h,
+            vec![-1.0, 0.5, -2.0, 0.3],
+            vec![0.1, 0.0, 0.2, -0.1, 0.3, 0.0],
+            vec![0.3, 0.8],
+        )
+        .unwrap()
+        .with_joints(g, vec![0.7])
+        .unwrap()
+    }
+
+    /// `v` of the x-step at `rho` by a dense solve of the unregularized joint system
+    /// `[[M + rho H H^T, G], [G^T, 0]] [v; -lambda] = [f + rho H (y + c - zeta); -b]`.
+    fn dense_x_step(s: &GlobalSplitting, y: &[f64], zeta: &[f64], rho: f64) -> Vec<f64> {
+        let p = &s.p;
+        let (n, m) = (p.n(), p.w.len());
+        let j = p.joints.as_ref().unwrap();
+        let dense = |a: &CscMatrix| DMatrix::from_column_slice(a.nrows(), a.ncols(), &a.to_dense());
+        let (mm, h, g) = (dense(&p.m), dense(&p.h), dense(&j.g));
+        let mut k = DMatrix::zeros(n + 1, n + 1);
+        k.view_mut((0, 0), (n, n))
+            .copy_from(&(mm + rho * &h * h.transpose()));
+        k.view_mut((0, n), (n, 1)).copy_from(&g);
+        k.view_mut((n, 0), (1, n)).copy_from(&g.transpose());
+        let t = DVector::from_iterator(m, (0..m).map(|i| rho * (y[i] + s.c[i] - zeta[i])));
+        let top = DVector::from_column_slice(&p.f) + h * t;
+        let mut rhs = DVector::zeros(n + 1);
+        rhs.rows_mut(0, n).copy_from(&top);
+        rhs[n] = -j.b[0];
+        let x = k.lu().solve(&rhs).unwrap();
+        x.rows(0, n).iter().copied().collect()
+    }
+
+    /// When a rho rule returns to a penalty whose factor is cached, the joint system's
+    /// refinement step must multiply by the matrix of that penalty, not of the last one
+    /// factorized.
+    #[test]
+    fn x_step_with_joints_after_returning_to_a_cached_rho() {
+        let mut s = GlobalSplitting::new(joint_problem()).unwrap();
+        let y = [0.3, 0.1, -0.2, 0.5, 0.0, 0.1];
+        let zeta = [-0.2, 0.05, 0.1, -0.4, 0.2, 0.0];
+        let mut ax = [0.0; 6];
+        for rho in [1.0, 10.0, 1.0] {
+            s.set_rho(rho).unwrap();
+            s.x_step(&y, &zeta, rho, &mut ax);
+            let reference = dense_x_step(&s, &y, &zeta, rho);
+            for (a, b) in s.sol[..4].iter().zip(&reference) {
+                assert!(
+                    (a - b).abs() <= 1e-9 * b.abs().max(1.0),
+                    "rho {rho}: v {a} vs dense {b}"
+                );
+            }
+        }
     }
 }

@@ -1,4 +1,4 @@
-//! Initial penalty rules of seed 000 section 4.1.
+//! Initial penalty rules (docs/algorithms.md §6.1).
 //!
 //! For the global form the QP matrix is `M` and the constraint matrix `H^T`; for the local
 //! form they are `W` and `I`, so Ghadimi's `1 / sqrt(l_min l_max (A Q^-1 A^T))` and

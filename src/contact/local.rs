@@ -3,18 +3,16 @@
 //! x-update: `(W + rho I) x = -(q + Phi(s)) + rho (z - zeta)`, by Cholesky when W is
 //! symmetric (up to round-off), by LU otherwise.
 
-use super::{de_saxce_shift, initial_shift};
-use crate::admm::Splitting;
-use crate::cone::{get3, project_cone, set3};
+use super::{de_saxce_shift, initial_shift, ContactForm};
+use crate::admm::{EngineState, Splitting};
+use crate::cone::{de_saxce, get3, project_cone, set3};
 use crate::csc::norm2;
 use crate::error::Error;
 use crate::linsys::param_matrix::triplets;
 use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
-use crate::measure::complementarity_residual;
-use crate::problem::LocalProblem;
-
-/// Relative asymmetry above which W is treated as non-symmetric.
-const SYMMETRY_TOL: f64 = 1e-12;
+use crate::measure::{local_error_with, MeasureWork};
+use crate::problem::{LocalProblem, Problem};
+use crate::solver::Solution;
 
 /// The local contact problem as an ADMM splitting.
 pub struct LocalSplitting {
@@ -25,11 +23,12 @@ pub struct LocalSplitting {
     phi: Vec<f64>,
     zero: Vec<f64>,
     u: Vec<f64>,
+    measure: MeasureWork,
 }
 
 impl LocalSplitting {
     /// Chooses Cholesky or LU from the symmetry of W and analyses the pattern.
-    pub fn new(p: LocalProblem) -> Result<Self, Error> {
+    pub(crate) fn new(p: LocalProblem) -> Result<Self, Error> {
         let m = p.q.len();
         let (matrix, kind, symmetric) = system_matrix(&p);
         let factor = SparseFactor::new("W + rho I", matrix, kind)?;
@@ -43,48 +42,15 @@ impl LocalSplitting {
             phi,
             zero: vec![0.0; m],
             u: vec![0.0; m],
+            measure: MeasureWork::new(&Problem::Local(p.clone())),
             p,
         })
     }
 
-    /// Takes new values on the same sizes and pattern: numeric refactorization only.
-    pub fn update(&mut self, p: LocalProblem) -> Result<(), Error> {
-        let (matrix, _, symmetric) = system_matrix(&p);
-        if symmetric != self.symmetric {
-            // The factorization kind changes with the symmetry of W: start over.
-            *self = Self::new(p)?;
-            return Ok(());
-        }
-        self.factor.replace_matrix(matrix)?;
-        self.p = p;
-        self.reset_shift();
-        Ok(())
-    }
-
-    /// The problem.
-    pub fn problem(&self) -> &LocalProblem {
-        &self.p
-    }
-
-    /// True when W + rho I is factorized by Cholesky (W symmetric).
-    pub fn symmetric(&self) -> bool {
-        self.symmetric
-    }
-
-    /// Numeric factorizations so far.
-    pub fn refactorizations(&self) -> usize {
-        self.factor.refactorizations()
-    }
-
-    /// Restarts the De Saxce shift from the initial guess of eq. (61).
-    pub fn reset_shift(&mut self) {
+    /// Restarts the De Saxce shift from its initial guess (docs/algorithms.md §5).
+    fn reset_shift(&mut self) {
         initial_shift(&self.p.mu, self.p.w.norm_fro(), &mut self.phi);
         self.refresh();
-    }
-
-    /// Sets the De Saxce shift from an impulse (warm start).
-    pub fn shift_from_impulse(&mut self, r: &[f64]) {
-        self.update_s(r, r);
     }
 
     fn refresh(&mut self) {
@@ -94,7 +60,7 @@ impl LocalSplitting {
     }
 
     /// Local velocity `u = W r + q` of an impulse.
-    pub fn velocity(&self, r: &[f64], u: &mut [f64]) {
+    fn velocity(&self, r: &[f64], u: &mut [f64]) {
         u.copy_from_slice(&self.p.q);
         self.p.w.mul_vec(1.0, r, 1.0, u);
     }
@@ -103,9 +69,7 @@ impl LocalSplitting {
 /// `W + rho I`: Cholesky on the upper triangle when W is symmetric, LU otherwise.
 fn system_matrix(p: &LocalProblem) -> (ParamMatrix, FactorKind, bool) {
     let m = p.q.len();
-    let scale = p.w.values().iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    let symmetric =
-        p.w.asymmetry().unwrap_or(f64::INFINITY) <= SYMMETRY_TOL * scale.max(f64::MIN_POSITIVE);
+    let symmetric = p.w.is_symmetric();
     let identity = (0..m).map(|i| (i, i, 1.0));
     if symmetric {
         (
@@ -171,18 +135,88 @@ impl Splitting for LocalSplitting {
     }
 
     fn error(&mut self, _ax: &[f64], y: &[f64], _zeta: &[f64], _rho: f64) -> f64 {
-        if !y.iter().all(|v| v.is_finite()) {
-            return f64::INFINITY;
+        local_error_with(&self.p, y, &mut self.measure)
+    }
+}
+
+impl ContactForm for LocalSplitting {
+    fn update(&mut self, p: Problem) -> Result<(), Error> {
+        let Problem::Local(p) = p else {
+            return Err(Error::Unsupported(
+                "update: the new problem is global, the solver was built for a local one".into(),
+            ));
+        };
+        if p.n_contacts() != self.p.n_contacts() {
+            return Err(Error::Dimension {
+                field: "n_contacts",
+                expected: self.p.n_contacts(),
+                found: p.n_contacts(),
+            });
         }
+        let (matrix, _, symmetric) = system_matrix(&p);
+        if symmetric != self.symmetric {
+            // The factorization kind changes with the symmetry of W: start over.
+            *self = Self::new(p)?;
+            return Ok(());
+        }
+        self.factor.replace_matrix(matrix)?;
+        self.p = p;
+        self.reset_shift();
+        Ok(())
+    }
+
+    fn n_velocities(&self) -> usize {
+        0
+    }
+
+    fn cold_start(&mut self, state: &mut EngineState) {
+        state.y.fill(0.0);
+        state.zeta.fill(0.0);
+        self.reset_shift();
+    }
+
+    fn warm_start(
+        &mut self,
+        r: &[f64],
+        _v: Option<&[f64]>,
+        state: &mut EngineState,
+    ) -> Result<(), Error> {
+        self.update_s(r, r);
+        // At a solution u~ = W r + q + Phi = -rho zeta.
         let mut u = std::mem::take(&mut self.u);
-        self.velocity(y, &mut u);
-        let comp = complementarity_residual(y, &u, &self.p.mu);
-        self.u = u;
-        let q = norm2(&self.p.q);
-        if q > 1.5e-8 {
-            comp / q
-        } else {
-            comp
+        self.velocity(r, &mut u);
+        for (i, &mu) in self.p.mu.iter().enumerate() {
+            let ut = de_saxce(get3(&u, i), mu);
+            let rho = state.rho;
+            set3(
+                &mut state.zeta,
+                i,
+                [-ut[0] / rho, -ut[1] / rho, -ut[2] / rho],
+            );
         }
+        self.u = u;
+        state.y.copy_from_slice(r);
+        Ok(())
+    }
+
+    fn recover(&mut self, _state: &EngineState) -> Result<(), Error> {
+        // The local solution is read from the engine state alone.
+        Ok(())
+    }
+
+    fn solution(&self, state: &EngineState) -> Solution {
+        let r = state.y.clone();
+        let mut u = vec![0.0; r.len()];
+        self.velocity(&r, &mut u);
+        Solution {
+            r,
+            u,
+            v: Vec::new(),
+            lambda: Vec::new(),
+        }
+    }
+
+    fn refactorizations(&self) -> usize {
+        self.factor.refactorizations()
     }
 }

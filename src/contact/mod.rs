@@ -1,23 +1,64 @@
-//! The frictional contact problems as ADMM splittings (ALGORITHMS.md sections 3 and 4),
-//! and the initial penalty rules (seed 000 section 4.1).
+//! The frictional contact problems as ADMM splittings (docs/algorithms.md §4), and the
+//! initial penalty rules. Each form owns everything that depends on it: its warm start, its
+//! solution and its recovery after a failed step, behind [`ContactForm`], so the solver
+//! never branches on the form.
 
 mod global;
 mod initial_rho;
 mod local;
 
-pub use global::GlobalSplitting;
-pub use initial_rho::{initial_rho, InitialRho};
-pub use local::LocalSplitting;
+pub(crate) use global::GlobalSplitting;
+pub(crate) use initial_rho::initial_rho;
+pub use initial_rho::InitialRho;
+pub(crate) use local::LocalSplitting;
 
-use crate::cone::{get3, set3};
+use crate::admm::{EngineState, Splitting};
+use crate::cone::{de_saxce_term, get3, set3};
+use crate::error::Error;
+use crate::problem::Problem;
+use crate::solver::Solution;
+
+/// A contact problem form as the solver drives it: the engine's [`Splitting`] plus what
+/// the solver needs around a solve.
+pub(crate) trait ContactForm: Splitting {
+    /// Takes new values on the same sizes and patterns (numeric refactorization only);
+    /// a problem of the other form or other sizes is an error.
+    fn update(&mut self, p: Problem) -> Result<(), Error>;
+    /// Length of `v` (0 for the local form).
+    fn n_velocities(&self) -> usize;
+    /// Cold start: zero iterate, initial De Saxce shift.
+    fn cold_start(&mut self, state: &mut EngineState);
+    /// Warm start from impulses `r` (finite, checked) and, global form only, velocities
+    /// `v` (checked here).
+    fn warm_start(
+        &mut self,
+        r: &[f64],
+        v: Option<&[f64]>,
+        state: &mut EngineState,
+    ) -> Result<(), Error>;
+    /// Re-derives the form's own iterate (velocity, multipliers) from the engine state,
+    /// after a step that went non-finite left it behind.
+    fn recover(&mut self, state: &EngineState) -> Result<(), Error>;
+    /// The solution at the engine state.
+    fn solution(&self, state: &EngineState) -> Solution;
+    /// Numeric factorizations so far.
+    fn refactorizations(&self) -> usize;
+}
+
+/// Builds the form of `problem`.
+pub(crate) fn contact_form(problem: Problem) -> Result<Box<dyn ContactForm>, Error> {
+    Ok(match problem {
+        Problem::Global(g) => Box::new(GlobalSplitting::new(g)?),
+        Problem::Local(l) => Box::new(LocalSplitting::new(l)?),
+    })
+}
 
 /// De Saxce shift of each contact's normal component: `mu ||u_T||`, written into `phi`
 /// (normal slots only). Returns the relative change of the shift.
 fn de_saxce_shift(u: &[f64], mu: &[f64], phi: &mut [f64]) -> f64 {
     let (mut change, mut size) = (0.0f64, 0.0f64);
     for (i, &m) in mu.iter().enumerate() {
-        let ui = get3(u, i);
-        let s = m * (ui[1] * ui[1] + ui[2] * ui[2]).sqrt();
+        let s = de_saxce_term(get3(u, i), m);
         change += (s - phi[3 * i]).powi(2);
         size += s * s;
         set3(phi, i, [s, 0.0, 0.0]);
@@ -25,7 +66,7 @@ fn de_saxce_shift(u: &[f64], mu: &[f64], phi: &mut [f64]) -> f64 {
     change.sqrt() / size.sqrt().max(f64::MIN_POSITIVE)
 }
 
-/// Initial shift of seed 000 eq. (61): `Phi(1) / (||Phi(1)|| ||A||_F)`, where `A` is `H`
+/// Initial shift (docs/algorithms.md §5): `Phi(1) / (||Phi(1)|| ||A||_F)`, where `A` is `H`
 /// (global) or `W` (local).
 fn initial_shift(mu: &[f64], frobenius: f64, phi: &mut [f64]) {
     phi.fill(0.0);
@@ -35,5 +76,24 @@ fn initial_shift(mu: &[f64], frobenius: f64, phi: &mut [f64]) {
     }
     for (i, &m) in mu.iter().enumerate() {
         phi[3 * i] = m / (norm_mu * frobenius);
+    }
+}
+
+/// Rejects a vector of the wrong length or with a non-finite entry.
+fn check_vector(field: &'static str, x: &[f64], expected: usize) -> Result<(), Error> {
+    if x.len() != expected {
+        return Err(Error::Dimension {
+            field,
+            expected,
+            found: x.len(),
+        });
+    }
+    match x.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(Error::InvalidValue {
+            field,
+            index,
+            reason: "not finite",
+        }),
+        None => Ok(()),
     }
 }

@@ -5,9 +5,10 @@
 //! Conventions every function follows:
 //!
 //! - Functions return a `cadmm_result`: `CADMM_OK` (0) or a `CADMM_ERR_*` code;
-//!   `cadmm_result_message` describes a code and `cadmm_solver_last_error` gives the
-//!   detailed message of a failed solver call. The outcome of a solve is a separate
-//!   `cadmm_status`.
+//!   `cadmm_result_message` describes a code; `cadmm_last_error` gives the detailed
+//!   message of the last failed call on the calling thread (any function: building a
+//!   problem, a setter, `cadmm_solver_new`...), and `cadmm_solver_last_error` that of the
+//!   last failed call on one solver. The outcome of a solve is a separate `cadmm_status`.
 //! - Every pointer argument is checked: a NULL where one is required returns
 //!   `CADMM_ERR_NULL_POINTER`. Out-parameters are written only on success; a failed
 //!   `_new` leaves `*out` untouched. `_free(NULL)` is a no-op.
@@ -50,9 +51,9 @@ pub use settings::{
     cadmm_settings_set_variant,
 };
 pub use solver::{
-    cadmm_solver, cadmm_solver_free, cadmm_solver_get_solution, cadmm_solver_get_stats,
-    cadmm_solver_get_trace, cadmm_solver_last_error, cadmm_solver_new, cadmm_solver_solve,
-    cadmm_solver_trace_len, cadmm_solver_update, cadmm_solver_warm_start,
+    cadmm_solver, cadmm_solver_free, cadmm_solver_get_joint_multipliers, cadmm_solver_get_solution,
+    cadmm_solver_get_stats, cadmm_solver_get_trace, cadmm_solver_last_error, cadmm_solver_new,
+    cadmm_solver_solve, cadmm_solver_trace_len, cadmm_solver_update, cadmm_solver_warm_start,
 };
 pub use stats::{cadmm_stats, cadmm_trace_point};
 
@@ -66,6 +67,16 @@ pub extern "C" fn cadmm_version() -> *const c_char {
     panic::guard_value(std::ptr::null(), || {
         concat!(env!("CARGO_PKG_VERSION"), "\0").as_ptr().cast()
     })
+}
+
+/// The detailed message of the last call that failed on the calling thread, e.g.
+/// "invalid CSC matrix M: row index 7 out of range in column 2"; "" when none has failed.
+/// Every function returning a `cadmm_result` other than `CADMM_OK` sets it first; a
+/// successful call leaves it unchanged. The string belongs to the library and stays valid
+/// until the next failing call on the same thread; copy it to keep it. Never free it.
+#[no_mangle]
+pub extern "C" fn cadmm_last_error() -> *const c_char {
+    panic::guard_value(std::ptr::null(), panic::last_error)
 }
 
 /// A static, NUL-terminated English description of a result code; "unknown result code"

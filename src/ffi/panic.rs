@@ -3,15 +3,40 @@
 
 use super::result::{cadmm_result, FfiResult, CADMM_ERR_PANIC, CADMM_OK};
 use std::any::Any;
+use std::cell::RefCell;
+use std::ffi::{c_char, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-/// Runs the body of a function that returns a `cadmm_result`; a panic becomes
-/// `CADMM_ERR_PANIC`.
+thread_local! {
+    /// Message of the last failed call on this thread (`cadmm_last_error`).
+    static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
+}
+
+/// Records `message` as this thread's last error.
+fn set_last_error(message: &str) {
+    let text = CString::new(message.replace('\0', " ")).unwrap_or_default();
+    LAST_ERROR.with(|e| *e.borrow_mut() = text);
+}
+
+/// This thread's last error message; the pointer stays valid until the next failed call on
+/// this thread.
+pub(crate) fn last_error() -> *const c_char {
+    LAST_ERROR.with(|e| e.borrow().as_ptr())
+}
+
+/// Runs the body of a function that returns a `cadmm_result`; a failure's message becomes
+/// this thread's last error, and a panic becomes `CADMM_ERR_PANIC`.
 pub(crate) fn guard(body: impl FnOnce() -> FfiResult) -> cadmm_result {
     match catch_unwind(AssertUnwindSafe(body)) {
         Ok(Ok(())) => CADMM_OK,
-        Ok(Err(failure)) => failure.code,
-        Err(_) => CADMM_ERR_PANIC,
+        Ok(Err(failure)) => {
+            set_last_error(&failure.message);
+            failure.code
+        }
+        Err(payload) => {
+            set_last_error(&panic_message(payload.as_ref()));
+            CADMM_ERR_PANIC
+        }
     }
 }
 
@@ -54,7 +79,13 @@ mod tests {
             guard(|| Err(Failure::new(CADMM_ERR_DIMENSION, "x"))),
             CADMM_ERR_DIMENSION
         );
+        let text = |p: *const c_char| unsafe { std::ffi::CStr::from_ptr(p) }.to_str().unwrap();
+        assert_eq!(text(last_error()), "x");
         assert_eq!(guard(|| panic!("boom")), CADMM_ERR_PANIC);
+        assert_eq!(text(last_error()), "internal error (panic): boom");
+        // A success leaves the last failure's message in place (errno-like).
+        assert_eq!(guard(|| Ok(())), CADMM_OK);
+        assert_eq!(text(last_error()), "internal error (panic): boom");
     }
 
     #[test]

@@ -206,14 +206,15 @@ fn no_fclib(path: &std::path::Path) -> Failure {
 }
 
 /// Computes the error measure of a candidate solution (the one `cadmm_solver_solve` stops
-/// on; ALGORITHMS.md section 7), from any source.
+/// on; docs/algorithms.md §3), from any source.
 ///
 /// `r` has `3 n_contacts` entries. For a global problem `v` (`n` entries) is required and
 /// `u` is recomputed as `H^T v + w`; for a local problem `v` is ignored (may be NULL) and
 /// `u` is recomputed as `W r + q`. `u` is accepted for symmetry with
-/// `cadmm_solver_get_solution` and never read (may be NULL). Joint multipliers are not
-/// passed here: for a global problem with joints the equation residual omits `G lambda`.
-/// A non-finite `r` or `v` gives an infinite error (not a failure). `*error` is written on
+/// `cadmm_solver_get_solution` and never read (may be NULL). For a global problem with
+/// joints, the multipliers are recomputed as the least-squares solution of
+/// `G lambda = M v - H r - f` (the best ones for this `r` and `v`), and the joint residual
+/// `||G^T v + b||` is part of the error (docs/algorithms.md §3.2). A non-finite `r` or `v` gives an infinite error (not a failure). `*error` is written on
 /// success only. Errors: `CADMM_ERR_NULL_POINTER`.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_problem_error(

@@ -284,6 +284,37 @@ pub unsafe extern "C" fn cadmm_solver_get_solution(
     unsafe { with_solver(sv, body) }
 }
 
+/// Copies the joint multipliers `lambda` of the current solution (`p` entries, the number of
+/// columns of the `G` given to `cadmm_problem_set_joints`), so that `M v = H r + G lambda + f`.
+/// `*n_joints` (may be NULL) receives `p`; `lambda` may be NULL to ask for `p` only. A
+/// problem without joints has `p = 0`. Errors: `CADMM_ERR_NULL_POINTER` (`sv`).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_get_joint_multipliers(
+    sv: *const cadmm_solver,
+    lambda: *mut f64,
+    n_joints: *mut usize,
+) -> cadmm_result {
+    let body = |sv: &cadmm_solver| -> FfiResult {
+        let solution = sv.solver.solution();
+        let np = solution.lambda.len();
+        if !lambda.is_null() {
+            check_output("lambda", lambda, np)?;
+        }
+        // SAFETY: checked, length from the problem as documented above.
+        unsafe {
+            if !lambda.is_null() {
+                write_output(lambda, &solution.lambda);
+            }
+            if !n_joints.is_null() {
+                n_joints.write(np);
+            }
+        }
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver(sv, body) }
+}
+
 /// Fills `*out` with the statistics of the last solve; set `out->struct_size =
 /// sizeof(cadmm_stats)` first (see `cadmm_stats`). Errors: `CADMM_ERR_NULL_POINTER`,
 /// `CADMM_ERR_INVALID_VALUE` (`struct_size` too small; nothing is written).

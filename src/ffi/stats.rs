@@ -22,7 +22,7 @@ pub struct cadmm_stats {
     pub status: cadmm_status,
     /// ADMM iterations done.
     pub iterations: u64,
-    /// Final error measure (ALGORITHMS.md section 7).
+    /// Final error measure (docs/algorithms.md §3).
     pub error: f64,
     /// Final primal residual.
     pub primal_residual: f64,

@@ -116,11 +116,6 @@ impl SparseFactor {
         })
     }
 
-    /// Dimension.
-    pub fn n(&self) -> usize {
-        self.matrix.n
-    }
-
     /// Number of numeric factorizations done so far.
     pub fn refactorizations(&self) -> usize {
         self.refactorizations
@@ -146,12 +141,14 @@ impl SparseFactor {
     /// Makes `A(rho)` the current factor: a cached one when rho was used recently, a new
     /// numeric factorization otherwise.
     pub fn set_rho(&mut self, rho: f64) -> Result<(), Error> {
+        // The values that `mul_vec` reads follow rho whether or not the factor is cached
+        // (joint refinement multiplies by them).
+        self.matrix.values_at(rho, &mut self.values);
         if let Some(pos) = self.cache.iter().position(|(r, _)| *r == rho) {
             let entry = self.cache.remove(pos);
             self.cache.push(entry);
             return Ok(());
         }
-        self.matrix.values_at(rho, &mut self.values);
         let n = self.matrix.n;
         let a = SparseColMatRef::new(
             SymbolicSparseColMatRef::new_checked(

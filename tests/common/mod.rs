@@ -100,13 +100,26 @@ fn rel(num: f64, den: f64) -> f64 {
     }
 }
 
-/// ALGORITHMS.md section 7, global form, dense and independent of the library.
-pub fn global_error(p: &GlobalProblem, r: &[f64], v: &[f64]) -> f64 {
+/// docs/algorithms.md §3, global form, dense and independent of the library. With joints,
+/// `lambda` (their multipliers, required) enters the equation residual and the joint
+/// residual `||G^T v + b||` is added.
+pub fn global_error(p: &GlobalProblem, r: &[f64], v: &[f64], lambda: &[f64]) -> f64 {
     let (m, h) = (dense(&p.m), dense(&p.h));
     let mv = matvec(&m, v);
-    let hr = matvec(&h, r);
+    let mut hr = matvec(&h, r);
+    let mut joint = 0.0;
+    if let Some(j) = &p.joints {
+        assert_eq!(lambda.len(), j.b.len(), "joint multipliers are required");
+        let g = dense(&j.g);
+        for (a, b) in hr.iter_mut().zip(matvec(&g, lambda)) {
+            *a += b;
+        }
+        let gv = matvec_t(&g, v);
+        let res: Vec<f64> = gv.iter().zip(&j.b).map(|(a, b)| a + b).collect();
+        joint = rel(norm(&res), norm(&gv).max(norm(&j.b)));
+    }
     let eq: Vec<f64> = (0..mv.len()).map(|i| -mv[i] + hr[i] + p.f[i]).collect();
-    let e1 = rel(norm(&eq), norm(&p.f).max(norm(&mv)).max(norm(&hr)));
+    let e1 = joint + rel(norm(&eq), norm(&p.f).max(norm(&mv)).max(norm(&hr)));
     let u: Vec<f64> = matvec_t(&h, v)
         .iter()
         .zip(&p.w)
@@ -115,20 +128,20 @@ pub fn global_error(p: &GlobalProblem, r: &[f64], v: &[f64]) -> f64 {
     e1 + rel(natural_map(r, &u, &p.mu), norm(&u).max(norm(r)))
 }
 
-/// ALGORITHMS.md section 7, local form, dense and independent of the library.
+/// docs/algorithms.md §3, local form, dense and independent of the library.
 pub fn local_error(p: &LocalProblem, r: &[f64]) -> f64 {
     let w = dense(&p.w);
     let u: Vec<f64> = matvec(&w, r).iter().zip(&p.q).map(|(a, b)| a + b).collect();
     rel(natural_map(r, &u, &p.mu), norm(&p.q))
 }
 
-/// Error of a solution of either form.
-pub fn error(p: &Problem, r: &[f64], v: &[f64]) -> f64 {
-    if !r.iter().chain(v).all(|x| x.is_finite()) {
+/// Error of a solution of either form (`lambda`: joint multipliers, if any).
+pub fn error(p: &Problem, r: &[f64], v: &[f64], lambda: &[f64]) -> f64 {
+    if !r.iter().chain(v).chain(lambda).all(|x| x.is_finite()) {
         return f64::INFINITY;
     }
     match p {
-        Problem::Global(g) => global_error(g, r, v),
+        Problem::Global(g) => global_error(g, r, v, lambda),
         Problem::Local(l) => local_error(l, r),
     }
 }

@@ -4,8 +4,8 @@
 //! factorization computed once per rho.
 
 use super::{soft_threshold, InputMemo, Rng, TestProblem};
-use crate::admm::Splitting;
-use crate::error::Error;
+use cadmm::admm::Splitting;
+use cadmm::Error;
 
 /// A total variation test problem.
 pub struct TotalVariation {
@@ -121,7 +121,7 @@ impl Splitting for TotalVariation {
 
     fn norm_at(&mut self, d: &[f64]) -> f64 {
         apply_dt(d, &mut self.scratch);
-        crate::csc::norm2(&self.scratch)
+        cadmm::admm::norm2(&self.scratch)
     }
 
     fn error(&mut self, _ax: &[f64], y: &[f64], zeta: &[f64], _rho: f64) -> f64 {

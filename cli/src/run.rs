@@ -3,7 +3,6 @@
 //! `cadmm::measure::problem_error` on the solution file the run wrote.
 
 use crate::runner::{self, ChildEnd};
-use crate::solution;
 use crate::spec::SolverSpec;
 use cadmm::Problem;
 use std::path::Path;
@@ -72,7 +71,7 @@ impl Run {
 
 /// The common error of a solution file; infinite when its sizes do not fit the problem.
 pub fn measure(problem: &Problem, file: &Path) -> Result<f64, String> {
-    let s = solution::read(file)?;
+    let s = cadmm::fclib::read_solution(file).map_err(|e| e.to_string())?;
     let fits = s.r.len() == 3 * problem.n_contacts()
         && match problem {
             Problem::Global(g) => s.v.len() == g.n(),

@@ -5,9 +5,9 @@
 //! Jacobian, an x-step then costs a few gradients instead of a factorization each.
 
 use super::{madelon_like, InputMemo, TestProblem};
-use crate::admm::Splitting;
-use crate::csc::norm2;
-use crate::error::Error;
+use cadmm::admm::norm2;
+use cadmm::admm::Splitting;
+use cadmm::Error;
 use nalgebra::{linalg::Cholesky, DMatrix, DVector, Dyn};
 
 /// Which of the two seed problems.

@@ -5,7 +5,6 @@
 //! re-measured by `cadmm::measure::problem_error` and, when a Python with h5py/scipy is
 //! around, by `../shared/tools/fc_error.py`. With Siconos importable by `/usr/bin/python3`
 //! (or `$CADMM_PYTHON`), a second run includes `siconos:ADMM`.
-#![cfg(feature = "fclib")]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -15,7 +14,7 @@ const FILES: [&str; 2] = ["global/GFC3D_Example1.hdf5", "local/FC3D_Example1.hdf
 fn shared() -> PathBuf {
     std::env::var_os("CADMM_SHARED")
         .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"))
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared"))
 }
 
 fn problem_path(rel: &str) -> PathBuf {
@@ -51,16 +50,8 @@ fn close(a: f64, b: f64) -> bool {
 
 /// `(r, v, lambda)` of a solution file.
 fn read_solution(path: &Path) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-    let f = hdf5::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let g = f.group("solution").unwrap();
-    let get = |n: &str| {
-        if g.link_exists(n) {
-            g.dataset(n).unwrap().read_raw::<f64>().unwrap()
-        } else {
-            Vec::new()
-        }
-    };
-    (get("r"), get("v"), get("l"))
+    let s = cadmm::fclib::read_solution(path).unwrap_or_else(|e| panic!("{e}"));
+    (s.r, s.v, s.lambda)
 }
 
 /// A Python that imports what fc_error.py needs, if any.

@@ -3,11 +3,11 @@
 //! and the claims of `examples/aa_paper.rs` on small instances of its problems.
 
 use cadmm::admm::Anderson;
-use cadmm::analysis::experiment::{analyze, spectrum_at, ExperimentSettings};
-use cadmm::analysis::optimal::{brute_force_saa1, optimal_saa1, proposition3, search_saa};
-use cadmm::analysis::spectrum::{eigenvalues, jacobian_fd};
-use cadmm::analysis::{asymptotic_factor, saa, AdmmMap, Analysis, Saa1Case, C64};
-use cadmm::test_problems::{
+use cadmm_research::analysis::experiment::{analyze, spectrum_at, ExperimentSettings};
+use cadmm_research::analysis::optimal::{brute_force_saa1, optimal_saa1, proposition3, search_saa};
+use cadmm_research::analysis::spectrum::{eigenvalues, jacobian_fd};
+use cadmm_research::analysis::{asymptotic_factor, saa, AdmmMap, Analysis, Saa1Case, C64};
+use cadmm_research::test_problems::{
     madelon_like, LeastSquares, Logistic, LogisticKind, Rng, TestProblem, TotalVariation,
 };
 
@@ -166,7 +166,7 @@ fn reduced_and_stacked_spectra_agree() {
     let mut p = LeastSquares::lasso(12, 20, 0.2, 9);
     let rho = p.rho();
     let sp = p.splitting();
-    let (reference, _) = cadmm::analysis::experiment::reference_point(sp, rho).unwrap();
+    let (reference, _) = cadmm_research::analysis::experiment::reference_point(sp, rho).unwrap();
     let reduced = spectrum_at(sp, rho, &reference, 1e-7).unwrap();
     let mut map = AdmmMap::new(sp, rho).unwrap();
     let jac = jacobian_fd(|x, y| map.apply(x, y), &reference, 1e-7);

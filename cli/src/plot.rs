@@ -133,7 +133,7 @@ pub fn work_precision(
     chart
         .configure_mesh()
         .x_desc("wall time (s)")
-        .y_desc("error (ALGORITHMS.md section 7)")
+        .y_desc("error (docs/algorithms.md §3)")
         .x_label_formatter(&|x| format!("{x:.0e}"))
         .y_label_formatter(&|y| format!("{y:.0e}"))
         .label_style(("sans-serif", 16))

@@ -7,11 +7,11 @@ use super::admm_map::{prox_input, AdmmMap};
 use super::optimal::{optimal_saa1, search_saa, Saa1Optimum};
 use super::spectrum::{asymptotic_factor, eigenvalues, jacobian_fd, Spectrum};
 use super::{saa, Tracked};
-use crate::admm::{
+use cadmm::admm::norm2;
+use cadmm::admm::{
     self, EngineSettings, EngineState, Relaxation, RhoRule, SUpdate, Splitting, Variant,
 };
-use crate::csc::norm2;
-use crate::error::Error;
+use cadmm::Error;
 use std::time::Instant;
 
 /// What to measure.

@@ -13,8 +13,8 @@
 //! `X' L'` of `w -> X(L(w))` (size l) have the same nonzero eigenvalues: the reduced map
 //! gives the spectrum at an eighth of the eigenvalue cost.
 
-use crate::admm::Splitting;
-use crate::error::Error;
+use cadmm::admm::Splitting;
+use cadmm::Error;
 
 /// The ADMM fixed-point map of a splitting at a fixed penalty.
 pub struct AdmmMap<'a> {

@@ -11,11 +11,11 @@
 //! spectra) go to `DIR` (default `target/aa_paper`). Text in the plots needs a TrueType
 //! font (`$CADMM_FONT` or a common system path); without one the plots are skipped.
 
-#[path = "../src/bin/cadmm/font.rs"]
+#[path = "../../cli/src/font.rs"]
 mod font;
 
-use cadmm::analysis::{analyze, saa, Analysis, ExperimentSettings, Run, Saa1Case, C64};
-use cadmm::test_problems::{paper_problems, TestProblem};
+use cadmm_research::analysis::{analyze, saa, Analysis, ExperimentSettings, Run, Saa1Case, C64};
+use cadmm_research::test_problems::{paper_problems, TestProblem};
 use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -21,7 +21,7 @@ pub use madelon::madelon_like;
 pub use rng::Rng;
 pub use total_variation::TotalVariation;
 
-use crate::admm::Splitting;
+use cadmm::admm::Splitting;
 
 /// A seed-001 test problem: an engine [`Splitting`] with a name and the seed's penalty.
 pub trait TestProblem: Splitting {

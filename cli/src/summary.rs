@@ -120,7 +120,7 @@ pub fn markdown(b: &Bench) -> String {
          from that trace. Siconos: the driver call (its own setup included) in a child \
          process; it has no trace, so its time to a tolerance is the time of a whole run {} \
          when its final error is at most that tolerance. Every error is re-measured with \
-         cadmm's `problem_error` (ALGORITHMS.md section 7) on the solution the solver \
+         cadmm's `problem_error` (docs/algorithms.md §3) on the solution the solver \
          returned; a crash, a timeout or an error above the tolerance is a failure \
          (infinite time).",
         if b.peer_per_tol {

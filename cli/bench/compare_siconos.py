@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Benchmark: cadmm `auto` next to Siconos numerics ADMM on every FCLib file, same machine,
-same run, same error measure (ALGORITHMS.md section 7, recomputed from each solution).
+same run, same error measure (docs/algorithms.md §3, recomputed from each solution).
 
 usage: bench/compare_siconos.py [--tol 1e-8] [--time-limit 20] [--repeat 3] [--only PATTERN]
                                 [--cadmm target/release/cadmm] [--csv OUT.csv]

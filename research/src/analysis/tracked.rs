@@ -3,8 +3,8 @@
 //! the engine's per-iteration trace this records the error history of any run (plain ADMM
 //! or AA(m)) without touching the loop.
 
-use crate::admm::Splitting;
-use crate::error::Error;
+use cadmm::admm::Splitting;
+use cadmm::Error;
 
 /// `inner` with the error measure `||(y, zeta) - (y*, zeta*)|| / ||(y*, zeta*)||`.
 pub struct Tracked<'a> {
@@ -17,7 +17,7 @@ impl<'a> Tracked<'a> {
     /// Wraps `inner`; `reference` is the stacked fixed point `(y*, zeta*)`.
     pub fn new(inner: &'a mut dyn Splitting, reference: &'a [f64]) -> Self {
         assert_eq!(reference.len(), 2 * inner.dim());
-        let scale = crate::csc::norm2(reference).max(f64::MIN_POSITIVE);
+        let scale = cadmm::admm::norm2(reference).max(f64::MIN_POSITIVE);
         Self {
             inner,
             reference,

@@ -3,13 +3,13 @@
 //! case, brute-force sAA(2)/sAA(3) coefficients, the spectrum of the ADMM map's Jacobian
 //! `q'(x*)` by finite differences, and asymptotic factors measured from error histories.
 //!
-//! It works on any engine [`Splitting`](crate::admm::Splitting) (the seed's test problems
+//! It works on any engine [`Splitting`](cadmm::admm::Splitting) (the seed's test problems
 //! live in [`crate::test_problems`]): solving always goes through the one engine loop
-//! ([`crate::admm::run`]); the single map `q` of [`AdmmMap`] is used only where the
+//! ([`cadmm::admm::run`]); the single map `q` of [`AdmmMap`] is used only where the
 //! analysis needs `q` itself (finite differences, the stationary iteration).
 //!
 //! ```
-//! use cadmm::analysis::{optimal::proposition3, C64};
+//! use cadmm_research::analysis::{optimal::proposition3, C64};
 //! // Ridge regression of seed 001: spectrum in [0, 0.833] -> beta* = 0.420, rho* = 0.592.
 //! let opt = proposition3(0.0, 5.0 / 6.0);
 //! assert!((opt.beta - 0.420).abs() < 5e-4 && (opt.rho - 0.592).abs() < 5e-4);

@@ -14,7 +14,7 @@ Prints ONE line of JSON on stdout:
    "status": "solved"|"max_iterations"|"time_limit"|"crash"|"failed",
    "iterations": int|null, "seconds": wall time of the driver call only (for time_limit and
    crash: how long the solve ran), "siconos_error": Siconos' own final error,
-   "error": the ALGORITHMS.md section 7 measure, null when there is no solution}
+   "error": the docs/algorithms.md §3 measure, null when there is no solution}
 "error" is recomputed with the shared fc_error.error(); "solved" means error <= tol, whatever
 Siconos says (they differ: Siconos 4.4 divides the local error by max(|q|,|u|,|r|), not |q|,
 and gfc3d IPM reports its own interior-point criterion). The solve runs in a forked child that is killed at the time limit, because

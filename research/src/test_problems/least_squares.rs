@@ -4,8 +4,8 @@
 //! `s A^T A + rho I`, computed once per rho.
 
 use super::{soft_threshold, InputMemo, Rng, TestProblem};
-use crate::admm::Splitting;
-use crate::error::Error;
+use cadmm::admm::Splitting;
+use cadmm::Error;
 use nalgebra::{linalg::Cholesky, DMatrix, DVector, Dyn};
 
 /// The regularizer `g(z)`.
@@ -174,7 +174,7 @@ impl Splitting for LeastSquares {
     }
 
     fn norm_at(&mut self, d: &[f64]) -> f64 {
-        crate::csc::norm2(d)
+        cadmm::admm::norm2(d)
     }
 
     fn error(&mut self, _ax: &[f64], y: &[f64], zeta: &[f64], _rho: f64) -> f64 {

@@ -8,7 +8,6 @@ mod profile;
 mod run;
 mod runner;
 mod siconos;
-mod solution;
 mod solve;
 mod spec;
 mod summary;

@@ -3,7 +3,7 @@
 //! run estimated from its error history.
 
 use super::C64;
-use crate::error::Error;
+use cadmm::Error;
 use faer::Mat;
 
 /// Jacobian of `q` at `x` by central differences with step `h`, column-major `n x n`

@@ -132,7 +132,16 @@ pub fn global_error_with(
         complementarity_residual(r, &work.u, &p.mu),
         norm2(&work.u).max(norm2(r)),
     );
-    e1 + e2 + joint_error
+    finite_or_infinite(e1 + e2 + joint_error)
+}
+
+/// Overflowing products make `inf / inf`: such an error is infinite, never NaN.
+fn finite_or_infinite(e: f64) -> f64 {
+    if e.is_nan() {
+        f64::INFINITY
+    } else {
+        e
+    }
 }
 
 /// Least-squares joint multipliers: `argmin ||G lambda - (M v - H r - f)||`, by an SVD of
@@ -170,7 +179,10 @@ pub fn local_error_with(p: &LocalProblem, r: &[f64], work: &mut MeasureWork) -> 
     work.u.resize(p.q.len(), 0.0);
     work.u.copy_from_slice(&p.q);
     p.w.mul_vec(1.0, r, 1.0, &mut work.u);
-    relative(complementarity_residual(r, &work.u, &p.mu), norm2(&p.q))
+    finite_or_infinite(relative(
+        complementarity_residual(r, &work.u, &p.mu),
+        norm2(&p.q),
+    ))
 }
 
 /// Error of a solution of either form (`v` and `lambda` are ignored for a local problem).

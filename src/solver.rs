@@ -122,16 +122,19 @@ impl Solver {
         let set = self.settings.engine_settings(&self.resolved);
         let out = admm::run(self.form.as_mut(), &mut self.state, &set, t0)?;
         let status = out.status.unwrap_or(Status::MaxIterations);
+        let mut error = out.error;
         if status == Status::NumericalError {
             // The form's own iterate comes from the step that blew up: recompute it from
-            // the last finite iterate, which the state holds.
+            // the last finite iterate, which the state holds, and measure that.
             self.form.recover(&self.state)?;
+            let s = &self.state;
+            error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
         }
         self.trace = out.trace;
         self.stats = Stats {
             status,
             iterations: out.iterations,
-            error: out.error,
+            error,
             primal_residual: out.primal,
             dual_residual: out.dual,
             rho: self.state.rho,

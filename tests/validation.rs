@@ -414,8 +414,20 @@ fn a_non_finite_iterate_stops_with_a_status_and_keeps_finite_values() {
         initial_rho: Some(InitialRho::Given(1.0)),
         ..Default::default()
     };
-    let mut solver = Solver::new(Problem::Global(p), s).unwrap();
+    let mut solver = Solver::new(Problem::Global(p.clone()), s).unwrap();
     assert_eq!(solver.solve().unwrap(), cadmm::Status::NumericalError);
     let sol = solver.solution();
-    assert!(sol.r.iter().all(|x| x.is_finite()), "r = {:?}", sol.r);
+    for (name, x) in [("r", &sol.r), ("u", &sol.u), ("v", &sol.v)] {
+        assert!(x.iter().all(|x| x.is_finite()), "{name} = {x:?}");
+    }
+    // The reported error is the measure of the solution handed back, and it is honest: the
+    // iterate kept is not a solution.
+    let stats = solver.stats();
+    let again = cadmm::measure::global_error(&p, &sol.r, &sol.v, &sol.lambda);
+    assert_eq!(
+        stats.error.to_bits(),
+        again.to_bits(),
+        "{stats:?} vs {again}"
+    );
+    assert!(stats.error > 1e-8, "{stats:?}");
 }

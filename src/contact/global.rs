@@ -307,6 +307,11 @@ impl ContactForm for GlobalSplitting {
         let mut ax = vec![0.0; state.ax.len()];
         self.set_rho(state.rho)?;
         self.x_step(&state.y, &state.zeta, state.rho, &mut ax);
+        if !self.sol.iter().all(|x| x.is_finite()) {
+            // Even the kept iterate's velocity overflows (the data's own scale does): hand
+            // back v = 0 and lambda = 0 rather than non-finite values; the error says the rest.
+            self.sol.fill(0.0);
+        }
         Ok(())
     }
 

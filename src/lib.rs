@@ -34,6 +34,9 @@ pub mod fclib;
 pub mod ffi;
 mod linsys;
 pub mod measure;
+/// Semismooth Newton (Alart-Curnier) phase.
+#[allow(dead_code)]
+mod newton;
 mod problem;
 mod settings;
 mod solver;

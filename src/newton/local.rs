@@ -1,0 +1,608 @@
+//! Semismooth Newton for the local problem `u = W r + q`, unknown `r`, on the
+//! Alart-Curnier equation `F(r, W r + q) = 0`.
+//!
+//! Each step solves `(A (W + alpha D) + B) dr = -F`, with `A`, `B` the block-diagonal
+//! Jacobian pieces of [`super::ac_contact`] and `D = diag(1 / rho_i)` (so that `alpha` is
+//! dimensionless: on a sticking contact the added block is `alpha I`).
+//!
+//! Why this regularization: `A W + B` is singular whenever the sticking contacts are
+//! redundant (a box on four coplanar corners: `W` has rank 6 for 12 unknowns). Adding
+//! `alpha A` is one Newton step on the proximal problem `u = W r + q + alpha D (r - r_k)`
+//! centred at the current iterate, whose function value at `r_k` is unchanged: the fixed
+//! points are the same, and the step is an inexact Newton step with a residual of order
+//! `alpha`. `alpha` follows the error measure (`alpha = min(err, 1e-2)`), which keeps the
+//! convergence superlinear near the solution, and grows tenfold whenever no step length
+//! passes the line search (Levenberg-Marquardt style), back down after full steps.
+//!
+//! Line search: backtracking on `||F||` with the test `||F(r + t d)|| <= (1 - 1e-4 t) R`
+//! (for an inexact Newton step this is the Armijo test of `0.5 ||F||^2`), where `R` is the
+//! largest `||F||` of the last 8 accepted points (non-monotone: a monotone search stalled
+//! on kinks of `||F||` from cold starts on stacks of boxes). The best iterate by the common
+//! error measure `crate::measure::local_error` is kept and returned, whatever happens.
+//!
+//! `rho_N = rho_T = 1 / ||W_ii||_F` per contact: it makes the method invariant to the units
+//! of `r` (with `rho = 1`, scaling every mass by 1e4 made all 40 random 3-box stacks of the
+//! tests fail from a cold start; with this choice they all converge, as at unit scale).
+
+use super::sparse::{Pattern, SparseLu};
+use super::{
+    eval_all, rho_from_block, FailReason, Mat3, MeritWindow, NewtonOutcome, NewtonStatus,
+    Regularization, TUNING,
+};
+use crate::csc::CscMatrix;
+use crate::error::Error;
+use crate::measure::local_error;
+use crate::problem::LocalProblem;
+use std::time::Instant;
+
+/// Newton solver of a local problem; built once per sparsity pattern of `W`.
+pub struct LocalNewton {
+    nc: usize,
+    w_colptr: Vec<usize>,
+    w_rowind: Vec<usize>,
+    /// Per contact `rho_N = rho_T`.
+    rho: Vec<f64>,
+    /// Per W entry: position of row `3 i` (its contact's first row) in the Jacobian column.
+    w_dest: Vec<usize>,
+    /// Per column `c`: position of row `3 (c / 3)` (diagonal block) in column `c`.
+    diag_dest: Vec<usize>,
+    lu: SparseLu,
+    u: Vec<f64>,
+    f: Vec<f64>,
+    a: Vec<Mat3>,
+    b: Vec<Mat3>,
+    d: Vec<f64>,
+    wd: Vec<f64>,
+    r_trial: Vec<f64>,
+    u_trial: Vec<f64>,
+    f_trial: Vec<f64>,
+    a_trial: Vec<Mat3>,
+    b_trial: Vec<Mat3>,
+    best: Vec<f64>,
+}
+
+impl LocalNewton {
+    /// Builds the Jacobian pattern (3x3 block closure of the pattern of `W` plus the
+    /// diagonal blocks), its symbolic LU, and `rho_i = 1 / ||W_ii||_F` per contact.
+    pub fn new(p: &LocalProblem) -> Result<Self, Error> {
+        let nc = p.n_contacts();
+        let m = 3 * nc;
+        let w = &p.w;
+        if w.nrows() != m || w.ncols() != m {
+            return Err(Error::Dimension {
+                field: "W",
+                expected: m,
+                found: w.nrows(),
+            });
+        }
+        // Row i of the Jacobian mixes the rows of W of its contact (A_i W): a W entry in
+        // row 3i+b fills rows 3i..3i+3 of its column.
+        let mut cols: Vec<Vec<usize>> = vec![Vec::new(); m];
+        for (c, col) in cols.iter_mut().enumerate() {
+            for (row, _) in w.col(c) {
+                let i = row / 3;
+                col.extend([3 * i, 3 * i + 1, 3 * i + 2]);
+            }
+            let j = c / 3;
+            col.extend([3 * j, 3 * j + 1, 3 * j + 2]);
+        }
+        let pattern = Pattern::from_columns(m, cols);
+        let mut w_dest = Vec::with_capacity(w.nnz());
+        for c in 0..m {
+            for (row, _) in w.col(c) {
+                w_dest.push(pattern.pos(3 * (row / 3), c));
+            }
+        }
+        let diag_dest = (0..m).map(|c| pattern.pos(3 * (c / 3), c)).collect();
+        let rho = (0..nc).map(|i| rho_from_block(&diag_block(w, i))).collect();
+        let lu = SparseLu::new("Newton matrix A (W + alpha D) + B", pattern)?;
+        let z3 = vec![[[0.0; 3]; 3]; nc];
+        Ok(Self {
+            nc,
+            w_colptr: w.colptr().to_vec(),
+            w_rowind: w.rowind().to_vec(),
+            rho,
+            w_dest,
+            diag_dest,
+            lu,
+            u: vec![0.0; m],
+            f: vec![0.0; m],
+            a: z3.clone(),
+            b: z3.clone(),
+            d: vec![0.0; m],
+            wd: vec![0.0; m],
+            r_trial: vec![0.0; m],
+            u_trial: vec![0.0; m],
+            f_trial: vec![0.0; m],
+            a_trial: z3.clone(),
+            b_trial: z3,
+            best: vec![0.0; m],
+        })
+    }
+
+    /// Per-contact `rho` (`rho_N = rho_T`) used by the Alart-Curnier function.
+    pub fn rho(&self) -> &[f64] {
+        &self.rho
+    }
+
+    /// Replaces the per-contact `rho` (positive, one per contact).
+    pub fn set_rho(&mut self, rho: &[f64]) -> Result<(), Error> {
+        if rho.len() != self.nc {
+            return Err(Error::Dimension {
+                field: "rho",
+                expected: self.nc,
+                found: rho.len(),
+            });
+        }
+        if let Some(index) = rho.iter().position(|&x| !(x > 0.0 && x.is_finite())) {
+            return Err(Error::InvalidValue {
+                field: "rho",
+                index,
+                reason: "must be positive and finite",
+            });
+        }
+        self.rho.copy_from_slice(rho);
+        Ok(())
+    }
+
+    /// Solves from the start point `r` until `local_error <= tol`, `max_iter` steps, the
+    /// deadline, or a failure; leaves the best iterate (by `local_error`) in `r`.
+    ///
+    /// `p` must have the sparsity pattern of the problem the solver was built for.
+    pub fn solve(
+        &mut self,
+        p: &LocalProblem,
+        r: &mut [f64],
+        tol: f64,
+        max_iter: usize,
+        deadline: Option<Instant>,
+    ) -> Result<NewtonOutcome, Error> {
+        let m = 3 * self.nc;
+        if p.n_contacts() != self.nc
+            || p.w.colptr() != self.w_colptr
+            || p.w.rowind() != self.w_rowind
+        {
+            return Err(Error::InvalidCsc {
+                field: "W",
+                reason: "the sparsity pattern differs from the one the Newton solver was built for"
+                    .into(),
+            });
+        }
+        if r.len() != m {
+            return Err(Error::Dimension {
+                field: "r",
+                expected: m,
+                found: r.len(),
+            });
+        }
+        let factorizations0 = self.lu.factorizations();
+        let mut merit = self.evaluate_at(p, r);
+        let mut err = local_error(p, r);
+        self.best.copy_from_slice(r);
+        let mut best_err = err;
+        let mut reg = Regularization::new();
+        let mut window = MeritWindow::new(merit);
+        let (mut iterations, mut last_improvement) = (0, 0);
+        let status = loop {
+            if best_err <= tol {
+                break NewtonStatus::Converged;
+            }
+            if !merit.is_finite() {
+                break NewtonStatus::Failed(FailReason::NonFinite);
+            }
+            if iterations >= max_iter {
+                break NewtonStatus::Failed(FailReason::MaxIterations);
+            }
+            if deadline.is_some_and(|d| Instant::now() >= d) {
+                break NewtonStatus::Failed(FailReason::Deadline);
+            }
+            if iterations - last_improvement >= TUNING.stall {
+                break NewtonStatus::Failed(FailReason::NoProgress);
+            }
+            // One step: retry with a stronger regularization until the line search passes.
+            let step = loop {
+                let alpha = reg.alpha(err);
+                let outcome = if self.direction(p, alpha) {
+                    self.line_search(p, r, window.reference())
+                        .ok_or(FailReason::LineSearch)
+                } else {
+                    Err(FailReason::Singular)
+                };
+                match outcome {
+                    Ok(s) => break Ok(s),
+                    Err(why) if !reg.strengthen(err) => break Err(why),
+                    Err(_) => {}
+                }
+            };
+            let t = match step {
+                Ok(t) => t,
+                Err(why) => break NewtonStatus::Failed(why),
+            };
+            if t == 1.0 {
+                reg.relax();
+            }
+            iterations += 1;
+            // Accept the trial point; re-evaluate with u = W r + q exactly (the trial used
+            // u + t W d, which drifts by round-off).
+            r.copy_from_slice(&self.r_trial);
+            merit = self.evaluate_at(p, r);
+            window.push(merit);
+            err = local_error(p, r);
+            if err < best_err {
+                best_err = err;
+                last_improvement = iterations;
+                self.best.copy_from_slice(r);
+            }
+        };
+        r.copy_from_slice(&self.best);
+        let mut error = best_err;
+        if status == NewtonStatus::Converged {
+            error = self.snap_open(p, r, error, tol);
+        }
+        Ok(NewtonOutcome {
+            status,
+            iterations,
+            factorizations: self.lu.factorizations() - factorizations0,
+            error,
+        })
+    }
+
+    /// `u = W r + q` and F, A, B at `r`; returns the merit `0.5 ||F||^2`.
+    fn evaluate_at(&mut self, p: &LocalProblem, r: &[f64]) -> f64 {
+        self.u.copy_from_slice(&p.q);
+        p.w.mul_vec(1.0, r, 1.0, &mut self.u);
+        eval_all(
+            r,
+            &self.u,
+            &p.mu,
+            &self.rho,
+            &mut self.f,
+            &mut self.a,
+            &mut self.b,
+        )
+    }
+
+    /// Assembles `A (W + alpha D) + B`, factorizes, and solves for `d = -J^-1 F` (into
+    /// `self.d`, with `self.wd = W d`); false when singular or not finite.
+    fn direction(&mut self, p: &LocalProblem, alpha: f64) -> bool {
+        let vals = &mut self.lu.values;
+        vals.fill(0.0);
+        let (colptr, wv) = (p.w.colptr(), p.w.values());
+        for c in 0..colptr.len() - 1 {
+            for k in colptr[c]..colptr[c + 1] {
+                let row = self.w_rowind[k];
+                let (ai, bcol, base) = (&self.a[row / 3], row % 3, self.w_dest[k]);
+                for r in 0..3 {
+                    vals[base + r] += ai[r][bcol] * wv[k];
+                }
+            }
+            let j = c / 3;
+            let (aj, bj, bcol, base) = (&self.a[j], &self.b[j], c % 3, self.diag_dest[c]);
+            let reg = alpha / self.rho[j];
+            for r in 0..3 {
+                vals[base + r] += bj[r][bcol] + reg * aj[r][bcol];
+            }
+        }
+        if !self.lu.factor() {
+            return false;
+        }
+        for (d, f) in self.d.iter_mut().zip(&self.f) {
+            *d = -f;
+        }
+        if !self.lu.solve_in_place(&mut self.d) {
+            return false;
+        }
+        p.w.mul_vec(1.0, &self.d, 0.0, &mut self.wd);
+        true
+    }
+
+    /// Backtracking from `t = 1`; on success the trial point is in `r_trial` and the step
+    /// length is returned.
+    fn line_search(&mut self, p: &LocalProblem, r: &[f64], merit: f64) -> Option<f64> {
+        let mut t = 1.0;
+        while t >= TUNING.min_step {
+            for k in 0..r.len() {
+                self.r_trial[k] = r[k] + t * self.d[k];
+                self.u_trial[k] = self.u[k] + t * self.wd[k];
+            }
+            let trial = eval_all(
+                &self.r_trial,
+                &self.u_trial,
+                &p.mu,
+                &self.rho,
+                &mut self.f_trial,
+                &mut self.a_trial,
+                &mut self.b_trial,
+            );
+            let decrease = 1.0 - TUNING.sigma * t;
+            if trial <= decrease * decrease * merit {
+                return Some(t);
+            }
+            t *= 0.5;
+        }
+        None
+    }
+
+    /// Sets exactly to zero the impulses of the contacts that the converged point finds
+    /// open (they are zero up to round-off), when the error stays within `max(error, tol)`.
+    fn snap_open(&mut self, p: &LocalProblem, r: &mut [f64], error: f64, tol: f64) -> f64 {
+        self.evaluate_at(p, r);
+        self.r_trial.copy_from_slice(r);
+        let mut changed = false;
+        for i in 0..self.nc {
+            let (ri, ui) = (
+                &mut self.r_trial[3 * i..3 * i + 3],
+                &self.u[3 * i..3 * i + 3],
+            );
+            let open = super::ac_branch(
+                [ri[0], ri[1], ri[2]],
+                [ui[0], ui[1], ui[2]],
+                p.mu[i],
+                self.rho[i],
+                self.rho[i],
+            ) == super::Branch::Open;
+            if open && ri.iter().any(|&x| x != 0.0) {
+                ri.fill(0.0);
+                changed = true;
+            }
+        }
+        if !changed {
+            return error;
+        }
+        let snapped = local_error(p, &self.r_trial);
+        if snapped <= error.max(tol) {
+            r.copy_from_slice(&self.r_trial);
+            snapped
+        } else {
+            error
+        }
+    }
+}
+
+/// The 3x3 diagonal block of contact `i` of `w`.
+pub(crate) fn diag_block(w: &CscMatrix, i: usize) -> Mat3 {
+    let mut blk = [[0.0; 3]; 3];
+    for b in 0..3 {
+        for (row, v) in w.col(3 * i + b) {
+            if row / 3 == i {
+                blk[row % 3][b] = v;
+            }
+        }
+    }
+    blk
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::newton::testing::{
+        box_problem, duplicated, perturb, point_mass_problem, to_local, velocity, DT, G,
+    };
+
+    fn solve(p: &LocalProblem, r: &mut [f64], tol: f64) -> NewtonOutcome {
+        let mut s = LocalNewton::new(p).unwrap();
+        let out = s.solve(p, r, tol, 100, None).unwrap();
+        // The reported error is the common measure of the returned point.
+        assert_eq!(out.error, local_error(p, r));
+        out
+    }
+
+    fn report(name: &str, out: &NewtonOutcome) {
+        eprintln!(
+            "local {name}: {:?}, {} iterations, {} factorizations, error {:.2e}",
+            out.status, out.iterations, out.factorizations, out.error
+        );
+    }
+
+    #[test]
+    fn single_contact_slides_with_mu_10_under_light_load() {
+        // W = diag(2, 1/2, 1/2): r_N = -q_N / 2 = 5e-4, mu r_N = 5e-3 < ||q_T|| = 0.5, so it
+        // slides with r_T = -mu r_N q_T / ||q_T|| and u_T = r_T / 2 + q_T parallel to q_T.
+        let w = CscMatrix::from_dense("W", 3, 3, &[2.0, 0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.5])
+            .unwrap();
+        let p = LocalProblem::new(w, vec![-1e-3, 0.3, -0.4], vec![10.0]).unwrap();
+        let mut r = vec![0.0; 3];
+        let out = solve(&p, &mut r, 1e-14);
+        report("one contact mu=10 slide", &out);
+        assert!(out.converged());
+        let exact = [5e-4, -5e-3 * 0.6, 5e-3 * 0.8];
+        for k in 0..3 {
+            assert!((r[k] - exact[k]).abs() < 1e-10, "{r:?}");
+        }
+    }
+
+    #[test]
+    fn box_on_four_corners_rank_deficient() {
+        let g = box_problem(0.5, 0.0, 0.0);
+        let p = to_local(&g);
+        let mut r = vec![0.0; 12];
+        let out = solve(&p, &mut r, 1e-8);
+        report("box at rest (cold)", &out);
+        assert!(out.converged());
+        // Independent checks: the supports carry the weight, the box does not move.
+        let total: f64 = (0..4).map(|i| r[3 * i]).sum();
+        assert!((total - 2.0 * G * DT).abs() < 1e-8 * 2.0 * G * DT);
+        assert!(velocity(&g, &r).iter().all(|v| v.abs() < 1e-8));
+    }
+
+    #[test]
+    fn box_pushed_sideways_with_mu_1e3_sticks() {
+        let g = box_problem(1e3, 5.0, 0.0);
+        let p = to_local(&g);
+        let mut r = vec![0.0; 12];
+        let out = solve(&p, &mut r, 1e-8);
+        report("box pushed, mu=1e3 (cold)", &out);
+        assert!(out.converged());
+        assert!(velocity(&g, &r).iter().all(|v| v.abs() < 1e-8));
+        let tangential: f64 = (0..4).map(|i| r[3 * i + 1]).sum();
+        assert!((tangential + 5.0 * DT).abs() < 1e-8);
+    }
+
+    #[test]
+    fn box_pushed_sideways_slides() {
+        // mu = 0: no friction, v_x = push dt / m. mu = 0.3: v_x = dt (push - mu m g) / m.
+        for &(mu, push) in &[(0.0, 5.0), (0.3, 10.0)] {
+            let g = box_problem(mu, push, 0.0);
+            let p = to_local(&g);
+            let mut r = vec![0.0; 12];
+            let out = solve(&p, &mut r, 1e-10);
+            report(&format!("box sliding mu={mu} (cold)"), &out);
+            assert!(out.converged());
+            let v = velocity(&g, &r);
+            let vx = DT * (push - mu * 2.0 * G) / 2.0;
+            assert!((v[0] - vx).abs() < 1e-9 * vx, "{v:?} vs {vx}");
+            assert!(v[1..].iter().all(|x| x.abs() < 1e-9), "{v:?}");
+            if mu == 0.0 {
+                assert!(
+                    (0..4).all(|i| r[3 * i + 1] == 0.0 && r[3 * i + 2] == 0.0),
+                    "{r:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn separating_contacts_give_exactly_zero() {
+        let p = to_local(&box_problem(0.5, 3.0, 2.0));
+        for start in [0.0, 0.01] {
+            let mut r = vec![start; 12];
+            let out = solve(&p, &mut r, 1e-8);
+            report(&format!("box lifted (start {start})"), &out);
+            assert!(out.converged());
+            assert!(r.iter().all(|&x| x == 0.0), "{r:?}");
+        }
+    }
+
+    #[test]
+    fn duplicated_contacts() {
+        // A point mass on two identical contacts, sticking then sliding; the box with every
+        // corner listed twice.
+        for &(mu, push) in &[(0.5, 2.0), (0.5, 20.0)] {
+            let g = point_mass_problem(mu, 1.0, push, G, 2);
+            let p = to_local(&g);
+            let mut r = vec![0.0; 6];
+            let out = solve(&p, &mut r, 1e-10);
+            report(&format!("point mass x2 push {push}"), &out);
+            assert!(out.converged());
+            let v = velocity(&g, &r);
+            let vx = if push > mu * G {
+                DT * (push - mu * G)
+            } else {
+                0.0
+            };
+            assert!((v[0] - vx).abs() < 1e-9 && v[2].abs() < 1e-9, "{v:?}");
+        }
+        let g = duplicated(&box_problem(0.5, 3.0, 0.0));
+        let p = to_local(&g);
+        let mut r = vec![0.0; 24];
+        let out = solve(&p, &mut r, 1e-8);
+        report("box with duplicated corners (cold)", &out);
+        assert!(out.converged());
+        assert!(velocity(&g, &r).iter().all(|v| v.abs() < 1e-8));
+    }
+
+    #[test]
+    fn limits_and_misuse() {
+        let p = to_local(&box_problem(0.5, 0.0, 0.0));
+        let mut s = LocalNewton::new(&p).unwrap();
+        // A passed deadline or a zero iteration limit: no step, the start point returned.
+        let mut r = vec![0.1; 12];
+        let out = s
+            .solve(&p, &mut r, 1e-8, 100, Some(Instant::now()))
+            .unwrap();
+        assert_eq!(out.status, NewtonStatus::Failed(FailReason::Deadline));
+        assert_eq!((out.iterations, r[0]), (0, 0.1));
+        let out = s.solve(&p, &mut r, 1e-8, 0, None).unwrap();
+        assert_eq!(out.status, NewtonStatus::Failed(FailReason::MaxIterations));
+        assert_eq!(out.error, local_error(&p, &r));
+        // A non-finite start is reported, wrong sizes and patterns are errors.
+        let mut bad = vec![f64::NAN; 12];
+        let out = s.solve(&p, &mut bad, 1e-8, 10, None).unwrap();
+        assert_eq!(out.status, NewtonStatus::Failed(FailReason::NonFinite));
+        assert!(s.solve(&p, &mut [0.0; 3], 1e-8, 10, None).is_err());
+        let other = to_local(&point_mass_problem(0.5, 1.0, 0.0, G, 4));
+        assert!(s.solve(&other, &mut [0.0; 12], 1e-8, 10, None).is_err());
+        assert!(s.set_rho(&[1.0, 0.0, 1.0, 1.0]).is_err());
+    }
+
+    #[test]
+    fn warm_start_near_the_solution() {
+        let scenes: Vec<(&str, crate::problem::GlobalProblem)> = vec![
+            ("box at rest", box_problem(0.5, 0.0, 0.0)),
+            ("box mu=1e3", box_problem(1e3, 5.0, 0.0)),
+            ("box mu=0", box_problem(0.0, 5.0, 0.0)),
+            ("box slide", box_problem(0.3, 10.0, 0.0)),
+            ("box lifted", box_problem(0.5, 3.0, 2.0)),
+            ("box duplicated", duplicated(&box_problem(0.5, 3.0, 0.0))),
+        ];
+        for (name, g) in scenes {
+            let p = to_local(&g);
+            let mut r = vec![0.0; p.q.len()];
+            assert!(solve(&p, &mut r, 1e-14).error < 1e-13, "{name}");
+            let scale = (crate::csc::norm2(&r) / (r.len() as f64).sqrt()).max(1e-2);
+            for (eps, seed) in [(1e-2, 1), (1e-4, 2), (1e-6, 3)] {
+                let mut rw = r.clone();
+                perturb(&mut rw, eps, scale, seed);
+                let out = solve(&p, &mut rw, 1e-10);
+                report(&format!("{name} warm eps={eps:.0e}"), &out);
+                assert!(out.converged(), "{name} eps {eps}");
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod stack_tests {
+    use super::*;
+    use crate::newton::testing::{perturb, random_stacks, scaled_mass, to_local};
+
+    /// Cold and warm starts on random 3-box stacks (12 coupled contacts, mixed stick/slide
+    /// states, rank-deficient W), for two choices of rho.
+    #[test]
+    fn random_stacks_cold_and_warm() {
+        for (mass_scale, unit_rho) in [(1.0, false), (1.0, true), (1e4, false), (1e4, true)] {
+            let scenes: Vec<_> = random_stacks(40, 3, 30.0, 7)
+                .iter()
+                .map(|g| scaled_mass(g, mass_scale))
+                .collect();
+            let (mut cold_ok, mut cold_iters, mut warm_ok, mut warm_iters) = (0, 0, 0, 0);
+            for g in &scenes {
+                let p = to_local(g);
+                let mut s = LocalNewton::new(&p).unwrap();
+                if unit_rho {
+                    s.set_rho(&vec![1.0; p.mu.len()]).unwrap();
+                }
+                let mut r = vec![0.0; p.q.len()];
+                let out = s.solve(&p, &mut r, 1e-10, 200, None).unwrap();
+                if out.converged() {
+                    cold_ok += 1;
+                    cold_iters += out.iterations;
+                    // Warm start: perturb the solution by 1e-3 (relative, plus absolute).
+                    let scale = (crate::csc::norm2(&r) / (r.len() as f64).sqrt()).max(1e-3);
+                    perturb(&mut r, 1e-3, scale, 99);
+                    let out = s.solve(&p, &mut r, 1e-10, 50, None).unwrap();
+                    if out.converged() {
+                        warm_ok += 1;
+                        warm_iters += out.iterations;
+                    }
+                } else if !unit_rho {
+                    eprintln!(
+                        "local stack (x{mass_scale:.0e}) mu={} cold failed: {out:?}",
+                        p.mu[0]
+                    );
+                }
+            }
+            eprintln!(
+                "local stacks, masses x{mass_scale:.0e}, rho = {}: cold {cold_ok}/{} (mean {:.1} it), warm {warm_ok}/{cold_ok} (mean {:.1} it)",
+                if unit_rho { "1" } else { "1/||W_ii||" },
+                scenes.len(),
+                cold_iters as f64 / cold_ok.max(1) as f64,
+                warm_iters as f64 / warm_ok.max(1) as f64
+            );
+            if !unit_rho {
+                assert_eq!(warm_ok, cold_ok);
+                assert!(cold_ok >= scenes.len() * 9 / 10);
+            }
+        }
+    }
+}

@@ -1,0 +1,199 @@
+//! Semismooth Newton phase (Alart-Curnier) for the local and global contact problems.
+//!
+//! Meant to finish a solve after ADMM has identified the contact states: from a start near
+//! the solution it converges in a few steps. [`alart_curnier`] has the per-contact function
+//! and Jacobian, [`local::LocalNewton`] and [`global::GlobalNewton`] the two solvers.
+
+pub mod alart_curnier;
+pub mod global;
+pub mod local;
+mod sparse;
+#[cfg(test)]
+mod testing;
+
+pub use alart_curnier::{ac_branch, ac_contact, Branch, Mat3};
+// The solvers' entry points, for the solver driver that will call them.
+#[allow(unused_imports)]
+pub use global::GlobalNewton;
+#[allow(unused_imports)]
+pub use local::LocalNewton;
+
+/// Why a Newton solve stopped without reaching the tolerance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FailReason {
+    /// The iteration limit was reached.
+    MaxIterations,
+    /// The deadline passed.
+    Deadline,
+    /// No step decreased the merit function, even with the strongest regularization.
+    LineSearch,
+    /// The Newton matrix stayed singular (or its solution non-finite) at every
+    /// regularization tried.
+    Singular,
+    /// The residual at the start point is not finite.
+    NonFinite,
+    /// The error measure did not improve over many iterations.
+    NoProgress,
+}
+
+/// Outcome status of a Newton solve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NewtonStatus {
+    /// The common error measure reached the tolerance.
+    Converged,
+    /// Stopped early; the best iterate found is returned anyway.
+    Failed(FailReason),
+}
+
+/// What a Newton solve did. The best iterate (by the common error measure) is left in the
+/// caller's vectors whatever the status.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewtonOutcome {
+    /// Converged or why not.
+    pub status: NewtonStatus,
+    /// Accepted Newton steps.
+    pub iterations: usize,
+    /// Numeric LU factorizations (one per step, more when a step is retried with a
+    /// stronger regularization).
+    pub factorizations: usize,
+    /// Error measure (`crate::measure`) of the returned iterate.
+    pub error: f64,
+}
+
+impl NewtonOutcome {
+    /// True when the tolerance was reached.
+    pub fn converged(&self) -> bool {
+        self.status == NewtonStatus::Converged
+    }
+}
+
+/// Tuning shared by both solvers (see the module docs of [`local`] for the reasoning).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Tuning {
+    /// Armijo constant of the residual-norm decrease test.
+    pub sigma: f64,
+    /// Smallest line-search step before the step is retried with more regularization.
+    pub min_step: f64,
+    /// Smallest relative proximal regularization (keeps the matrix invertible).
+    pub alpha_min: f64,
+    /// Largest relative proximal regularization (beyond it the step is declared failed).
+    pub alpha_max: f64,
+    /// Cap of the error-driven part of the regularization.
+    pub alpha_cap: f64,
+    /// Iterations without improvement of the best error before giving up.
+    pub stall: usize,
+    /// Number of past merits the non-monotone line search compares with.
+    pub window: usize,
+}
+
+/// The values used (chosen on the random box stacks of the tests).
+pub(crate) const TUNING: Tuning = Tuning {
+    sigma: 1e-4,
+    min_step: 1.0 / 1024.0,
+    alpha_min: 1e-14,
+    alpha_max: 1e8,
+    alpha_cap: 1e-2,
+    stall: 60,
+    window: 8,
+};
+
+/// The last [`Tuning::window`] merit values: the line search asks for a decrease relative
+/// to their maximum (non-monotone, Grippo-Lampariello-Lucidi), which lets the iteration
+/// cross the kinks of `||F||` that stop a monotone search far from the solution.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct MeritWindow {
+    past: [f64; 8],
+    len: usize,
+    next: usize,
+}
+
+impl MeritWindow {
+    /// A window holding the merit of the start point.
+    pub fn new(first: f64) -> Self {
+        let mut w = Self {
+            past: [0.0; 8],
+            len: 0,
+            next: 0,
+        };
+        w.push(first);
+        w
+    }
+    /// Records the merit of an accepted point (dropping the oldest).
+    pub fn push(&mut self, merit: f64) {
+        let cap = TUNING.window.clamp(1, 8);
+        self.past[self.next] = merit;
+        self.next = (self.next + 1) % cap;
+        self.len = (self.len + 1).min(cap);
+    }
+    /// The merit a trial point must decrease from.
+    pub fn reference(&self) -> f64 {
+        self.past[..self.len]
+            .iter()
+            .fold(0.0, |a: f64, &b| a.max(b))
+    }
+}
+
+/// Regularization state: `alpha = clamp(min(err, cap) * boost)`, where `boost` grows by 10
+/// when a step fails and shrinks back by 10 after a full step.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Regularization {
+    boost: f64,
+}
+
+impl Regularization {
+    /// No boost.
+    pub fn new() -> Self {
+        Self { boost: 1.0 }
+    }
+    /// The relative regularization to use at the current error.
+    pub fn alpha(&self, err: f64) -> f64 {
+        let t = TUNING;
+        (err.min(t.alpha_cap) * self.boost).clamp(t.alpha_min, t.alpha_max)
+    }
+    /// Strengthens after a failed step; false when it is already at its maximum.
+    pub fn strengthen(&mut self, err: f64) -> bool {
+        if self.alpha(err) >= TUNING.alpha_max {
+            return false;
+        }
+        self.boost *= 10.0;
+        true
+    }
+    /// Relaxes after a full step.
+    pub fn relax(&mut self) {
+        self.boost = (self.boost / 10.0).max(1.0);
+    }
+}
+
+/// Per-contact rho from a 3x3 Delassus block: `1 / ||W_ii||_F`, 1 when the block is 0.
+pub(crate) fn rho_from_block(block: &Mat3) -> f64 {
+    let norm = block.iter().flatten().map(|v| v * v).sum::<f64>().sqrt();
+    if norm.is_finite() && norm > 0.0 {
+        1.0 / norm
+    } else {
+        1.0
+    }
+}
+
+/// Evaluates the Alart-Curnier function of every contact: fills `f` (length `3 nc`) and
+/// the blocks `a`, `b`; returns `0.5 ||f||^2`.
+pub(crate) fn eval_all(
+    r: &[f64],
+    u: &[f64],
+    mu: &[f64],
+    rho: &[f64],
+    f: &mut [f64],
+    a: &mut [Mat3],
+    b: &mut [Mat3],
+) -> f64 {
+    let mut merit = 0.0;
+    for i in 0..mu.len() {
+        let ri = [r[3 * i], r[3 * i + 1], r[3 * i + 2]];
+        let ui = [u[3 * i], u[3 * i + 1], u[3 * i + 2]];
+        let (fi, ai, bi) = ac_contact(ri, ui, mu[i], rho[i], rho[i]);
+        f[3 * i..3 * i + 3].copy_from_slice(&fi);
+        a[i] = ai;
+        b[i] = bi;
+        merit += fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2];
+    }
+    0.5 * merit
+}

@@ -225,18 +225,7 @@ static double *read_vector(hid_t parent, const char *name, size_t expected, char
     return v;
 }
 
-void fcr_free(fcr_problem *p)
-{
-    if (p == NULL) return;
-    tu_csc_free(&p->M);
-    tu_csc_free(&p->H);
-    tu_csc_free(&p->W);
-    free(p->f);
-    free(p->w);
-    free(p->q);
-    free(p->mu);
-    memset(p, 0, sizeof(*p));
-}
+void fcr_free(fcr_problem *p) { tu_problem_free(p); }
 
 int fcr_read(const char *path, fcr_problem *out, char *err, size_t errlen)
 {

@@ -13,18 +13,10 @@
 extern "C" {
 #endif
 
-typedef struct fcr_problem {
-    int is_global;  /* 1: fclib_global, 0: fclib_local */
-    int has_joints; /* a global problem with a G matrix (not read) */
-    size_t n;       /* velocities (global), 0 for local */
-    size_t nc;      /* contacts */
-    tu_csc M, H;    /* global: n x n, n x 3nc */
-    tu_csc W;       /* local: 3nc x 3nc */
-    double *f, *w;  /* global: n, 3nc */
-    double *q;      /* local: 3nc */
-    double *mu;     /* nc */
-    int encoding[2]; /* nz code seen for (M, H) or (W, -) as in the file: -1, -2 or >= 0 */
-} fcr_problem;
+/* The reader fills a tu_problem (test_util.h): is_global, has_joints (a global problem
+ * with a G matrix, which is not read), n, nc, M, H, f, w (global) or W, q (local), mu, and
+ * encoding (the nz code seen for (M, H) or (W, -) in the file: -1, -2 or >= 0). */
+typedef tu_problem fcr_problem;
 
 /* Reads `path`. Returns 0 on success; otherwise writes a message into err (errlen bytes)
  * and returns -1 (the problem is then empty and needs no fcr_free). */

@@ -1,13 +1,17 @@
 /* Shared helpers of the cadmm C/C++ tests: checks, the FCLib data directory, a small owned
- * CSC type, and an independent implementation of the error measure of
- * docs/algorithms.md §3 (it does not call the library, so it can be compared with
- * cadmm_problem_error).
+ * CSC type, an independent implementation of the error measure of docs/algorithms.md §3
+ * with and without joints (it does not call the library, so it can be compared with
+ * cadmm_problem_error and the solver's statistics) and an estimate of its round-off, a
+ * problem container (tu_problem, also the FCLib reader's), a fixed-seed random generator,
+ * and (with cadmm.h included first) a solve-and-check helper used by the programs that
+ * sweep many problems (tu_solve, tu_check_outcome).
  *
  * Everything is `static inline` so each test program includes it without a separate
  * translation unit and without unused-function warnings. Valid C99 and C++17. */
 #ifndef CADMM_TEST_UTIL_H
 #define CADMM_TEST_UTIL_H
 
+#include <ctype.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -259,7 +263,14 @@ static inline double tu_natural_map(const double *r, const double *u, const doub
 /* Denominators below this are skipped (docs/algorithms.md §3). */
 #define TU_TINY 1.5e-8
 
-static inline double tu_relative(double num, double den) { return den > TU_TINY ? num / den : num; }
+/* num / den, or the bare num when den <= TU_TINY. A norm that overflowed (entries beyond
+ * ~1e154 square to infinity) makes the term +inf: the measure cannot be evaluated in double
+ * precision, which counts like a non-finite candidate (docs/algorithms.md §3.1). */
+static inline double tu_relative(double num, double den)
+{
+    if (!isfinite(num) || !isfinite(den)) return INFINITY;
+    return den > TU_TINY ? num / den : num;
+}
 
 /* Local error: ||r - P_K(r - (u + Phi(u)))|| / ||q||, u = W r + q. */
 static inline double tu_local_error(const tu_csc *W, const double *q, const double *mu,
@@ -272,46 +283,453 @@ static inline double tu_local_error(const tu_csc *W, const double *q, const doub
         free(u);
         return INFINITY;
     }
-    memcpy(u, q, m * sizeof(double));
+    if (m > 0) memcpy(u, q, m * sizeof(double));
     tu_csc_mul(W, r, 1, u);
     e = tu_relative(tu_natural_map(r, u, mu, nc), tu_norm(q, m));
     free(u);
     return e;
 }
 
-/* Global error: ||-M v + H r + f|| / max(||f||, ||M v||, ||H r||)
- *             + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||),  u = H^T v + w. */
-static inline double tu_global_error(const tu_csc *M, const tu_csc *H, const double *f,
-                                     const double *w, const double *mu, size_t nc,
-                                     const double *r, const double *v)
+/* Global error with joints (docs/algorithms.md §3.1):
+ *     ||-M v + H r + G lambda + f|| / max(||f||, ||M v||, ||H r + G lambda||)
+ *   + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||),          u = H^T v + w
+ *   + ||G^T v + b|| / max(||G^T v||, ||b||)                       (joints only)
+ * G (n x p), b (p) and lambda (p) describe the joints; G == NULL or G->ncols == 0 means none
+ * (b and lambda are then not read). A non-finite r, v or lambda gives +inf. */
+static inline double tu_global_error_joints(const tu_csc *M, const tu_csc *H, const tu_csc *G,
+                                            const double *f, const double *w, const double *b,
+                                            const double *mu, size_t nc, const double *r,
+                                            const double *v, const double *lambda)
 {
-    size_t n = M->nrows, m = 3 * nc;
+    size_t n = M->nrows, m = 3 * nc, p = (G != NULL) ? G->ncols : 0;
     double *mv = (double *)tu_calloc(n, sizeof(double));
     double *hr = (double *)tu_calloc(n, sizeof(double));
     double *eq = (double *)tu_calloc(n, sizeof(double));
     double *u = (double *)tu_calloc(m, sizeof(double));
-    double e1, e2;
-    if (!tu_all_finite(r, m) || !tu_all_finite(v, n)) {
-        free(mv);
-        free(hr);
-        free(eq);
-        free(u);
-        return INFINITY;
+    double *gv = (double *)tu_calloc(p, sizeof(double));
+    double e1, e2, e3 = 0.0;
+    if (!tu_all_finite(r, m) || !tu_all_finite(v, n) || (p > 0 && !tu_all_finite(lambda, p))) {
+        e1 = INFINITY;
+        goto done;
     }
     tu_csc_mul(M, v, 0, mv);
     tu_csc_mul(H, r, 0, hr);
+    if (p > 0) tu_csc_mul(G, lambda, 1, hr); /* hr = H r + G lambda */
     for (size_t i = 0; i < n; ++i) eq[i] = -mv[i] + hr[i] + f[i];
     e1 = tu_relative(tu_norm(eq, n),
                      tu_max(tu_norm(f, n), tu_max(tu_norm(mv, n), tu_norm(hr, n))));
-    memcpy(u, w, m * sizeof(double));
+    if (m > 0) memcpy(u, w, m * sizeof(double));
     tu_csc_mul_t(H, v, 1, u);
     e2 = tu_relative(tu_natural_map(r, u, mu, nc), tu_max(tu_norm(u, m), tu_norm(r, m)));
+    if (p > 0) {
+        double gnorm, s = 0.0;
+        tu_csc_mul_t(G, v, 0, gv); /* G^T v */
+        gnorm = tu_norm(gv, p);
+        for (size_t k = 0; k < p; ++k) s += (gv[k] + b[k]) * (gv[k] + b[k]);
+        e3 = tu_relative(sqrt(s), tu_max(gnorm, tu_norm(b, p)));
+    }
+    e1 = e1 + e2 + e3;
+done:
     free(mv);
     free(hr);
     free(eq);
     free(u);
-    return e1 + e2;
+    free(gv);
+    return e1;
 }
+
+/* Global error without joints: ||-M v + H r + f|| / max(||f||, ||M v||, ||H r||)
+ *                             + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||),
+ *                               u = H^T v + w. */
+static inline double tu_global_error(const tu_csc *M, const tu_csc *H, const double *f,
+                                     const double *w, const double *mu, size_t nc,
+                                     const double *r, const double *v)
+{
+    return tu_global_error_joints(M, H, NULL, f, w, NULL, mu, nc, r, v, NULL);
+}
+
+/* ---- a problem owned by the tests ------------------------------------------------------- */
+
+/* A global or local problem held in plain arrays, the library not involved: filled by the
+ * independent FCLib reader (fclib_read.h, where it is also called fcr_problem) or by a test's
+ * own generator. Zero-initialize before filling; tu_problem_free releases what is set. */
+typedef struct tu_problem {
+    int is_global;   /* 1: global (M, H, f, w), 0: local (W, q) */
+    int has_joints;  /* fclib_read: the file has a G matrix (which it does not read) */
+    size_t n;        /* velocities (global), 0 for local */
+    size_t nc;       /* contacts */
+    tu_csc M, H;     /* global: n x n, n x 3nc */
+    tu_csc W;        /* local: 3nc x 3nc */
+    double *f, *w;   /* global: n, 3nc */
+    double *q;       /* local: 3nc */
+    double *mu;      /* nc */
+    int encoding[2]; /* fclib_read: nz code seen for (M, H) or (W, -): -1, -2 or >= 0 */
+    tu_csc G;        /* joints of a generated global problem: n x p (p = 0: none) */
+    double *b;       /* p */
+} tu_problem;
+
+static inline void tu_problem_free(tu_problem *p)
+{
+    if (p == NULL) return;
+    tu_csc_free(&p->M);
+    tu_csc_free(&p->H);
+    tu_csc_free(&p->W);
+    tu_csc_free(&p->G);
+    free(p->f);
+    free(p->w);
+    free(p->q);
+    free(p->mu);
+    free(p->b);
+    memset(p, 0, sizeof(*p));
+}
+
+/* Number of joints (columns of G) of a problem. */
+static inline size_t tu_problem_joints(const tu_problem *p)
+{
+    return (p->is_global && p->G.colptr != NULL) ? p->G.ncols : 0;
+}
+
+/* The independent error of a candidate (r, v, lambda) for `p` (lambda: one entry per joint;
+ * not read without joints; v not read for a local problem). */
+static inline double tu_problem_error(const tu_problem *p, const double *r, const double *v,
+                                      const double *lambda)
+{
+    if (!p->is_global) return tu_local_error(&p->W, p->q, p->mu, p->nc, r);
+    return tu_global_error_joints(&p->M, &p->H, tu_problem_joints(p) ? &p->G : NULL, p->f, p->w,
+                                  p->b, p->mu, p->nc, r, v, lambda);
+}
+
+/* y += |A| |x| (transposed: y += |A|^T |x|), for round-off bounds. */
+static inline void tu_csc_abs_mul(const tu_csc *a, const double *x, int transposed, double *y)
+{
+    if (a == NULL || a->colptr == NULL) return;
+    for (size_t j = 0; j < a->ncols; ++j)
+        for (int64_t k = a->colptr[j]; k < a->colptr[j + 1]; ++k) {
+            if (transposed)
+                y[j] += fabs(a->values[k]) * fabs(x[a->rowind[k]]);
+            else
+                y[a->rowind[k]] += fabs(a->values[k]) * fabs(x[j]);
+        }
+}
+
+/* The largest number of entries in a row (transposed: in a column) of A. */
+static inline size_t tu_csc_max_terms(const tu_csc *a, int transposed)
+{
+    size_t best = 0;
+    if (a == NULL || a->colptr == NULL) return 0;
+    if (transposed) {
+        for (size_t j = 0; j < a->ncols; ++j)
+            if ((size_t)(a->colptr[j + 1] - a->colptr[j]) > best)
+                best = (size_t)(a->colptr[j + 1] - a->colptr[j]);
+    } else {
+        size_t *count = (size_t *)tu_calloc(a->nrows, sizeof(size_t));
+        for (int64_t k = 0; k < a->colptr[a->ncols]; ++k)
+            if (++count[a->rowind[k]] > best) best = count[a->rowind[k]];
+        free(count);
+    }
+    return best;
+}
+
+/* ||y|| for y = gamma (|A| |x| + |c|) (+ |B| |z| when B is given): the standard bound on the
+ * rounding error of A x + B z + c computed in floating point, gamma = (k + 2) eps with k
+ * the terms of the longest sum (twice the classical k u / (1 - k u)). */
+static inline double tu_residual_roundoff(const tu_csc *A, const double *x, int at,
+                                          const tu_csc *B, const double *z, const tu_csc *C,
+                                          const double *zc, const double *c, size_t len)
+{
+    const double eps = 2.220446049250313e-16;
+    size_t k = tu_csc_max_terms(A, at) + (B ? tu_csc_max_terms(B, 0) : 0) +
+               (C ? tu_csc_max_terms(C, 0) : 0) + 1;
+    double *y = (double *)tu_calloc(len, sizeof(double)), e;
+    tu_csc_abs_mul(A, x, at, y);
+    if (B != NULL) tu_csc_abs_mul(B, z, 0, y);
+    if (C != NULL) tu_csc_abs_mul(C, zc, 0, y);
+    if (c != NULL)
+        for (size_t i = 0; i < len; ++i) y[i] += fabs(c[i]);
+    e = (double)(k + 2) * eps * tu_norm(y, len);
+    free(y);
+    return e;
+}
+
+/* An estimate of the round-off in evaluating the measure of (r, v, lambda) for `p`: two
+ * correct implementations that sum in different orders can differ by about this much
+ * (absolute). The residuals (M v - H r - G lambda - f, u = W r + q or H^T v + w, G^T v + b)
+ * carry the rounding errors bounded by tu_residual_roundoff, counted four times (two
+ * evaluations, each within the bound, and a margin: on Confeti-ex03 the library's value
+ * and this file's differ by 0.8 of the single bound); the natural map moves by at
+ * most (1 + mu) times the error in u (the projection is 1-Lipschitz, Phi is mu-Lipschitz);
+ * each term is then divided by its denominator. The estimate is tiny for well-scaled
+ * answers and grows when the residuals are small differences of large terms (an
+ * ill-conditioned file, a huge r in the null space of a singular W): there the two
+ * evaluations legitimately differ in their leading digits. */
+static inline double tu_problem_error_roundoff(const tu_problem *p, const double *r,
+                                               const double *v, const double *lambda)
+{
+    size_t m = 3 * p->nc, np = tu_problem_joints(p);
+    double mu_max = 0.0, e;
+    for (size_t c = 0; c < p->nc; ++c) mu_max = tu_max(mu_max, p->mu[c]);
+    if (!p->is_global) {
+        double nq = tu_norm(p->q, m);
+        double du = tu_residual_roundoff(&p->W, r, 0, NULL, NULL, NULL, NULL, p->q, m);
+        e = 4.0 * (1.0 + mu_max) * du / (nq > TU_TINY ? nq : 1.0);
+        return isfinite(e) ? e : INFINITY;
+    }
+    {
+        size_t n = p->n;
+        double *mv = (double *)tu_calloc(n, sizeof(double));
+        double *hr = (double *)tu_calloc(n, sizeof(double));
+        double *u = (double *)tu_calloc(m, sizeof(double));
+        double *gv = (double *)tu_calloc(np, sizeof(double));
+        double den1, den2, deq, du;
+        deq = tu_residual_roundoff(&p->M, v, 0, &p->H, r, np > 0 ? &p->G : NULL, lambda, p->f, n);
+        tu_csc_mul(&p->M, v, 0, mv);
+        tu_csc_mul(&p->H, r, 0, hr);
+        if (np > 0) tu_csc_mul(&p->G, lambda, 1, hr);
+        den1 = tu_max(tu_norm(p->f, n), tu_max(tu_norm(mv, n), tu_norm(hr, n)));
+        du = tu_residual_roundoff(&p->H, v, 1, NULL, NULL, NULL, NULL, p->w, m);
+        if (m > 0) memcpy(u, p->w, m * sizeof(double));
+        tu_csc_mul_t(&p->H, v, 1, u);
+        den2 = tu_max(tu_norm(u, m), tu_norm(r, m));
+        e = deq / (den1 > TU_TINY ? den1 : 1.0) +
+            (1.0 + mu_max) * du / (den2 > TU_TINY ? den2 : 1.0);
+        if (np > 0) {
+            double dj = tu_residual_roundoff(&p->G, v, 1, NULL, NULL, NULL, NULL, p->b, np), den3;
+            tu_csc_mul_t(&p->G, v, 0, gv);
+            den3 = tu_max(tu_norm(gv, np), tu_norm(p->b, np));
+            e += dj / (den3 > TU_TINY ? den3 : 1.0);
+        }
+        free(mv);
+        free(hr);
+        free(u);
+        free(gv);
+        e *= 4.0;
+        return isfinite(e) ? e : INFINITY;
+    }
+}
+
+/* ---- status names, messages, random numbers --------------------------------------------- */
+
+/* Name of a cadmm_status value (the CADMM_STATUS_* codes: 0 solved, 1 max iterations,
+ * 2 time limit, 3 numerical error, 4 stalled). */
+static inline const char *tu_status_name(int status)
+{
+    switch (status) {
+    case 0: return "solved";
+    case 1: return "max_iterations";
+    case 2: return "time_limit";
+    case 3: return "numerical_error";
+    case 4: return "stalled";
+    default: return "(not a status)";
+    }
+}
+
+/* Does `text` contain `word` delimited by characters that cannot be part of a name (not a
+ * letter, digit or '_')? "M" is found in "matrix M: row" and "M + rho H H^T" but not in
+ * "Matrix" or "NUM". */
+static inline int tu_has_word(const char *text, const char *word)
+{
+    size_t len = strlen(word);
+    const char *p = text;
+    if (text == NULL || len == 0) return 0;
+    while ((p = strstr(p, word)) != NULL) {
+        int before = p == text ? 0 : (p[-1] == '_' || isalnum((unsigned char)p[-1]));
+        int after = p[len] == '_' || isalnum((unsigned char)p[len]);
+        if (!before && !after) return 1;
+        ++p;
+    }
+    return 0;
+}
+
+/* xorshift64* generator with a fixed seed: the same sequence on every platform. */
+typedef struct tu_rng {
+    uint64_t s;
+} tu_rng;
+
+static inline tu_rng tu_rng_new(uint64_t seed)
+{
+    tu_rng g;
+    g.s = seed ? seed : 0x9E3779B97F4A7C15ull;
+    return g;
+}
+
+static inline uint64_t tu_rng_next(tu_rng *g)
+{
+    g->s ^= g->s >> 12;
+    g->s ^= g->s << 25;
+    g->s ^= g->s >> 27;
+    return g->s * 0x2545F4914F6CDD1Dull;
+}
+
+/* Uniform in [0, 1). */
+static inline double tu_rng_uniform(tu_rng *g)
+{
+    return (double)(tu_rng_next(g) >> 11) * 0x1.0p-53;
+}
+
+/* Uniform in [a, b). */
+static inline double tu_rng_range(tu_rng *g, double a, double b)
+{
+    return a + (b - a) * tu_rng_uniform(g);
+}
+
+/* Uniform integer in [0, n). */
+static inline size_t tu_rng_index(tu_rng *g, size_t n) { return (size_t)(tu_rng_next(g) % n); }
+
+/* ---- solving a tu_problem through the C API (needs cadmm.h included first) ------------- */
+#ifdef CADMM_H
+
+/* Builds the library's copy of `p` (global or local, with its joints). On failure returns
+ * the code and leaves *out NULL. */
+static inline cadmm_result tu_problem_to_cadmm(const tu_problem *p, cadmm_problem **out)
+{
+    cadmm_result rc;
+    *out = NULL;
+    if (p->is_global) {
+        cadmm_csc M = tu_csc_view(&p->M), H = tu_csc_view(&p->H);
+        rc = cadmm_problem_new_global(p->n, p->nc, &M, &H, p->f, p->w, p->mu, out);
+        if (rc == CADMM_OK && tu_problem_joints(p) > 0) {
+            cadmm_csc G = tu_csc_view(&p->G);
+            rc = cadmm_problem_set_joints(*out, &G, p->b);
+            if (rc != CADMM_OK) {
+                cadmm_problem_free(*out);
+                *out = NULL;
+            }
+        }
+    } else {
+        cadmm_csc W = tu_csc_view(&p->W);
+        rc = cadmm_problem_new_local(p->nc, &W, p->q, p->mu, out);
+    }
+    return rc;
+}
+
+/* What one solve returned. */
+typedef struct tu_outcome {
+    cadmm_result rc;  /* of cadmm_solver_new, then of cadmm_solver_solve */
+    int solved_call;  /* 1 when cadmm_solver_solve was reached and returned CADMM_OK */
+    cadmm_status status;
+    cadmm_stats stats;
+    double *r, *u, *v, *lambda; /* 3nc, 3nc, n, p */
+    double e_ind;     /* independent error of (r, v, lambda) */
+    double e_lib;     /* cadmm_problem_error of (r, u, v) */
+    char message[256]; /* cadmm_last_error() of a failed call */
+} tu_outcome;
+
+static inline void tu_outcome_free(tu_outcome *o)
+{
+    free(o->r);
+    free(o->u);
+    free(o->v);
+    free(o->lambda);
+    o->r = o->u = o->v = o->lambda = NULL;
+}
+
+/* Creates a solver for `lib` (the library's copy of `p`) with `s`, solves once and reads
+ * back everything. */
+static inline void tu_solve(const tu_problem *p, const cadmm_problem *lib, const cadmm_settings *s,
+                            tu_outcome *o)
+{
+    cadmm_solver *sv = NULL;
+    size_t m = 3 * p->nc, np = tu_problem_joints(p), got = 0;
+    memset(o, 0, sizeof(*o));
+    o->status = -1;
+    o->r = (double *)tu_calloc(m, sizeof(double));
+    o->u = (double *)tu_calloc(m, sizeof(double));
+    o->v = (double *)tu_calloc(p->n, sizeof(double));
+    o->lambda = (double *)tu_calloc(np, sizeof(double));
+    o->e_ind = o->e_lib = NAN;
+    o->rc = cadmm_solver_new(lib, s, &sv);
+    if (o->rc != CADMM_OK) {
+        snprintf(o->message, sizeof o->message, "cadmm_solver_new: %s", cadmm_last_error());
+        return;
+    }
+    o->rc = cadmm_solver_solve(sv, &o->status);
+    if (o->rc != CADMM_OK) {
+        snprintf(o->message, sizeof o->message, "cadmm_solver_solve: %s", cadmm_last_error());
+        cadmm_solver_free(sv);
+        return;
+    }
+    o->solved_call = 1;
+    o->stats.struct_size = sizeof o->stats;
+    REQUIRE(cadmm_solver_get_stats(sv, &o->stats) == CADMM_OK);
+    REQUIRE(cadmm_solver_get_solution(sv, o->r, o->u, p->is_global ? o->v : NULL) == CADMM_OK);
+    REQUIRE(cadmm_solver_get_joint_multipliers(sv, o->lambda, &got) == CADMM_OK);
+    REQUIRE(got == np);
+    o->e_ind = tu_problem_error(p, o->r, o->v, o->lambda);
+    REQUIRE(cadmm_problem_error(lib, o->r, o->u, o->v, &o->e_lib) == CADMM_OK);
+    cadmm_solver_free(sv);
+}
+
+/* The checks every solve must pass, whatever its status (`label` names it in failures):
+ *  - r, u (and v, lambda) finite, and u = W r + q (local) or H^T v + w (global);
+ *  - stats.status is the status the solve returned;
+ *  - the status agrees with the independent error e of the returned answer: SOLVED means
+ *    e <= tol (1 + slack) + R, any other status e > tol - R, where R is the round-off
+ *    estimate of tu_problem_error_roundoff (the library decided on its own evaluation,
+ *    which sums in another order);
+ *  - cadmm_problem_error of the answer is e: |e_lib - e| <= agree e + R + 1e-15 (with
+ *    joints e_lib <= e (1 + agree) + R + 1e-15, its lambda being the least-squares one);
+ *  - stats.error is e, with the same bound, or both are +inf (an answer too large for the
+ *    measure's norms).
+ * Returns the number of failed checks. */
+static inline int tu_check_outcome(const char *label, const tu_problem *p, const tu_outcome *o,
+                                   double tol, double slack, double agree)
+{
+    int before = *tu_failures();
+    size_t m = 3 * p->nc, np = tu_problem_joints(p);
+    double *u_ref, R;
+    if (!o->solved_call) {
+        TU_FAIL("%s: no solve (code %d: %s)", label, (int)o->rc, o->message);
+        return *tu_failures() - before;
+    }
+    CHECK_MSG(o->stats.status == o->status, "%s: stats.status %d, solve returned %d", label,
+              (int)o->stats.status, (int)o->status);
+    CHECK_MSG(o->status >= CADMM_STATUS_SOLVED && o->status <= CADMM_STATUS_STALLED,
+              "%s: status %d is not a cadmm_status", label, (int)o->status);
+    CHECK_MSG(tu_all_finite(o->r, m) && tu_all_finite(o->u, m), "%s: r or u is not finite (%s)",
+              label, tu_status_name(o->status));
+    CHECK_MSG(tu_all_finite(o->v, p->n), "%s: v is not finite (%s)", label,
+              tu_status_name(o->status));
+    CHECK_MSG(tu_all_finite(o->lambda, np), "%s: lambda is not finite (%s)", label,
+              tu_status_name(o->status));
+    u_ref = (double *)tu_calloc(m, sizeof(double));
+    if (p->is_global) {
+        if (m > 0) memcpy(u_ref, p->w, m * sizeof(double));
+        tu_csc_mul_t(&p->H, o->v, 1, u_ref);
+    } else {
+        if (m > 0) memcpy(u_ref, p->q, m * sizeof(double));
+        tu_csc_mul(&p->W, o->r, 1, u_ref);
+    }
+    CHECK_MSG(tu_diff_norm(o->u, u_ref, m) <= 1e-10 * tu_max(1.0, tu_norm(u_ref, m)),
+              "%s: the returned u is not %s (difference %.3e)", label,
+              p->is_global ? "H^T v + w" : "W r + q", tu_diff_norm(o->u, u_ref, m));
+    free(u_ref);
+    R = tu_problem_error_roundoff(p, o->r, o->v, o->lambda) + 1e-15;
+    if (o->status == CADMM_STATUS_SOLVED)
+        CHECK_MSG(o->e_ind <= tol * (1.0 + slack) + R, "%s: SOLVED but the independent error "
+                  "is %.6e > tol %.1e (round-off estimate %.1e)", label, o->e_ind, tol, R);
+    else
+        CHECK_MSG(o->e_ind > tol - R, "%s: %s but the independent error is %.6e <= tol %.1e "
+                  "(round-off estimate %.1e)", label, tu_status_name(o->status), o->e_ind, tol,
+                  R);
+    /* without joints cadmm_problem_error measures exactly what e does (with joints it
+       recomputes lambda by least squares, docs/algorithms.md §3.2, and may be smaller) */
+    if (np == 0)
+        CHECK_MSG((isinf(o->e_lib) && isinf(o->e_ind)) ||
+                      fabs(o->e_lib - o->e_ind) <= agree * o->e_ind + R,
+                  "%s: cadmm_problem_error %.15e, independent error %.15e (round-off "
+                  "estimate %.1e)", label, o->e_lib, o->e_ind, R);
+    else
+        CHECK_MSG(o->e_lib <= o->e_ind * (1.0 + agree) + R,
+                  "%s: cadmm_problem_error %.15e (least-squares lambda) above the independent "
+                  "error %.15e (solver's lambda)", label, o->e_lib, o->e_ind);
+    CHECK_MSG((isinf(o->stats.error) && isinf(o->e_ind)) ||
+                  fabs(o->stats.error - o->e_ind) <= agree * o->e_ind + R,
+              "%s: stats.error %.15e, independent error of the returned answer %.15e "
+              "(round-off estimate %.1e)", label, o->stats.error, o->e_ind, R);
+    return *tu_failures() - before;
+}
+
+#endif /* CADMM_H */
 
 #ifdef __cplusplus
 }

@@ -129,7 +129,7 @@ typedef struct cadmm_stats {
      */
     cadmm_status status;
     /**
-     * ADMM iterations done.
+     * Iterations done: ADMM iterations and semismooth Newton steps.
      */
     uint64_t iterations;
     /**
@@ -168,6 +168,22 @@ typedef struct cadmm_stats {
      * Anderson acceleration steps rejected by the safeguard in the last solve.
      */
     uint64_t anderson_rejected;
+    /**
+     * Of `iterations`, the semismooth Newton steps of the last solve.
+     */
+    uint64_t newton_iterations;
+    /**
+     * Numeric factorizations of the Newton phases of the last solve.
+     */
+    uint64_t newton_factorizations;
+    /**
+     * Newton phases run in the last solve.
+     */
+    uint64_t newton_phases;
+    /**
+     * Newton phases that ended above the tolerance, after which ADMM resumed.
+     */
+    uint64_t newton_fallbacks;
 } cadmm_stats;
 
 /**
@@ -276,6 +292,12 @@ typedef struct cadmm_trace_point {
  * An iterate became non-finite; the solution is the last finite iterate.
  */
 #define CADMM_STATUS_NUMERICAL_ERROR 3
+
+/**
+ * The method stopped making progress before the tolerance (only the "newton" variant,
+ * which has no ADMM to fall back on); the solution is its best iterate.
+ */
+#define CADMM_STATUS_STALLED 4
 
 #ifdef __cplusplus
 extern "C" {
@@ -412,9 +434,11 @@ void cadmm_problem_free(struct cadmm_problem *p);
 cadmm_result cadmm_settings_new(struct cadmm_settings **out);
 
 /**
- * Chooses the ADMM variant: "auto" (the default) or one of "cp-N", "cp-R", "cp-RR",
- * "vp-N-He", "vp-R-He", "vp-RR-He", "vp-N-Wohlberg", "vp-R-Wohlberg", "vp-RR-Wohlberg",
- * "vp-N-Spectral", "vp-R-Spectral", "vp-RR-Spectral". Errors: `CADMM_ERR_NULL_POINTER`,
+ * Chooses the variant: "auto" (the default: ADMM finished by the semismooth Newton
+ * phase), "newton" (semismooth Newton alone from the initial guess), or one of the ADMM
+ * variants "cp-N", "cp-R", "cp-RR", "vp-N-He", "vp-R-He", "vp-RR-He", "vp-N-Wohlberg",
+ * "vp-R-Wohlberg", "vp-RR-Wohlberg", "vp-N-Spectral", "vp-R-Spectral", "vp-RR-Spectral"
+ * (docs/algorithms.md §6.5, §9). Errors: `CADMM_ERR_NULL_POINTER`,
  * `CADMM_ERR_INVALID_SETTING` (unknown name; the settings are unchanged).
  */
 cadmm_result cadmm_settings_set_variant(struct cadmm_settings *s, const char *name);
@@ -472,6 +496,13 @@ cadmm_result cadmm_settings_set_s_update(struct cadmm_settings *s, const char *m
  * `cadmm_solver_trace_len` and `cadmm_solver_get_trace`. Errors: `CADMM_ERR_NULL_POINTER`.
  */
 cadmm_result cadmm_settings_set_trace(struct cadmm_settings *s, bool on);
+
+/**
+ * Switches the semismooth Newton finishing phase on or off (docs/algorithms.md §9). By
+ * default it is on for "auto" and off for the named ADMM variants; with "newton" the
+ * setting is ignored. Errors: `CADMM_ERR_NULL_POINTER`.
+ */
+cadmm_result cadmm_settings_set_newton(struct cadmm_settings *s, bool on);
 
 /**
  * Releases settings. NULL is a no-op. The handle must not be used afterwards.
@@ -568,6 +599,13 @@ size_t cadmm_solver_trace_len(const struct cadmm_solver *sv);
 cadmm_result cadmm_solver_get_trace(const struct cadmm_solver *sv,
                                     size_t i,
                                     struct cadmm_trace_point *out);
+
+/**
+ * The phase of trace point `i` (`0 <= i < cadmm_solver_trace_len`): 0 for an ADMM
+ * iteration, 1 for the end of a semismooth Newton phase (whose point has NaN residuals).
+ * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (index out of range).
+ */
+cadmm_result cadmm_solver_get_trace_phase(const struct cadmm_solver *sv, size_t i, int32_t *phase);
 
 /**
  * The message of the last failed call on this solver ("" if none has failed), naming the

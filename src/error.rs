@@ -100,6 +100,9 @@ pub enum Status {
     TimeLimit = 2,
     /// An iterate became non-finite; the last finite iterate is kept.
     NumericalError = 3,
+    /// The method stopped making progress before the tolerance (only the `newton` variant,
+    /// which has no ADMM to fall back on); its best iterate is kept.
+    Stalled = 4,
 }
 
 impl Status {
@@ -110,6 +113,7 @@ impl Status {
             Status::MaxIterations => "max_iterations",
             Status::TimeLimit => "time_limit",
             Status::NumericalError => "numerical_error",
+            Status::Stalled => "stalled",
         }
     }
 }

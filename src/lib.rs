@@ -48,6 +48,6 @@ pub use contact::InitialRho;
 pub use csc::CscMatrix;
 pub use error::{Error, Status};
 pub use problem::{GlobalProblem, Joints, LocalProblem, Problem};
-pub use settings::{Resolved, Settings, VariantChoice};
+pub use settings::{NewtonUse, Resolved, Settings, VariantChoice};
 pub use solver::{Solution, Solver};
-pub use stats::{Stats, TracePoint};
+pub use stats::{Phase, Stats, TracePoint};

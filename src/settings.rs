@@ -1,6 +1,6 @@
 //! Solver settings, validated when a solver is built.
 
-use crate::admm::{EngineSettings, SUpdate, Variant};
+use crate::admm::{EngineSettings, Handover, SUpdate, Variant};
 use crate::contact::InitialRho;
 use crate::error::Error;
 
@@ -11,17 +11,32 @@ pub enum VariantChoice {
     Auto,
     /// One of the twelve named variants.
     Named(Variant),
+    /// Semismooth Newton alone from the initial guess, no ADMM (for comparison with
+    /// Newton-only solvers; docs/algorithms.md §9).
+    Newton,
 }
 
 impl VariantChoice {
-    /// Parses `auto` or a variant name (docs/algorithms.md §6.5).
+    /// Parses `auto`, `newton` or a variant name (docs/algorithms.md §6.5).
     pub fn from_name(name: &str) -> Result<Self, Error> {
-        if name == "auto" {
-            Ok(VariantChoice::Auto)
-        } else {
-            Variant::from_name(name).map(VariantChoice::Named)
+        match name {
+            "auto" => Ok(VariantChoice::Auto),
+            "newton" => Ok(VariantChoice::Newton),
+            _ => Variant::from_name(name).map(VariantChoice::Named),
         }
     }
+}
+
+/// How the semismooth Newton phase takes part in a solve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NewtonUse {
+    /// ADMM alone.
+    Off,
+    /// ADMM, then Newton from ADMM's iterate once the error is small or stalls; back to
+    /// ADMM from Newton's best iterate when Newton fails (docs/algorithms.md §9).
+    Polish,
+    /// Newton alone from the initial guess.
+    Alone,
 }
 
 /// Settings of a solve.
@@ -47,6 +62,9 @@ pub struct Settings {
     pub anderson_interval: usize,
     /// Record a per-iteration trace. Default off.
     pub trace: bool,
+    /// Finish with the semismooth Newton phase; `None`: the variant's default (on for
+    /// `auto`, off for the named ADMM variants, which then run as published).
+    pub newton_polish: Option<bool>,
 }
 
 impl Default for Settings {
@@ -61,6 +79,7 @@ impl Default for Settings {
             anderson: None,
             anderson_interval: 1,
             trace: false,
+            newton_polish: None,
         }
     }
 }
@@ -76,6 +95,20 @@ pub const AUTO_INITIAL_RHO: InitialRho = InitialRho::Acary;
 /// The error measure is evaluated every this many iterations (and whenever the cheap
 /// residual test passes): it costs a few matrix-vector products, an iteration about one solve.
 pub const ERROR_CHECK_INTERVAL: usize = 5;
+
+/// ADMM hands over to the Newton phase once the error measure is at or below this: by then
+/// it has identified which contacts are open, sticking or sliding, where Newton converges
+/// in a few steps.
+pub const HANDOVER_ERROR: f64 = 1e-6;
+
+/// ... or when the error has not halved over this many evaluations (ERROR_CHECK_INTERVAL
+/// iterations each): ADMM has stalled, and Newton may still finish from there.
+pub const HANDOVER_STALL_CHECKS: usize = 20;
+
+/// Newton steps allowed per Newton phase with ADMM to fall back on. (A phase that failed
+/// on Box_Stacks files took this many steps; stopping phases earlier when their first steps
+/// gained little lost the files where Newton needs 20 to 40 steps before it converges fast.)
+pub const NEWTON_MAX_STEPS: usize = 50;
 
 /// rho stays within `[rho0 / RHO_RANGE, rho0 * RHO_RANGE]`: beyond that the factorization of
 /// `M + rho H H^T` (or `W + rho I`) loses the other term to round-off.
@@ -98,6 +131,8 @@ pub struct Resolved {
     pub anderson: usize,
     /// Smallest factor by which rho may change (1: every change the rule proposes).
     pub rho_change_factor: f64,
+    /// The Newton phase.
+    pub newton: NewtonUse,
 }
 
 impl Settings {
@@ -157,23 +192,37 @@ impl Settings {
             trace: self.trace,
             rho_range: RHO_RANGE,
             rho_change_factor: resolved.rho_change_factor,
+            handover: (resolved.newton == NewtonUse::Polish).then_some(Handover {
+                error_below: HANDOVER_ERROR,
+                stall_checks: HANDOVER_STALL_CHECKS,
+            }),
         }
     }
 
     /// Resolves `auto` and the per-variant defaults.
     pub fn resolved(&self) -> Resolved {
         match self.variant {
-            VariantChoice::Auto => Resolved {
+            VariantChoice::Auto | VariantChoice::Newton => Resolved {
                 variant: Variant::from_name(AUTO_VARIANT).expect("AUTO_VARIANT is a valid name"),
                 initial_rho: self.initial_rho.unwrap_or(AUTO_INITIAL_RHO),
                 anderson: self.anderson.unwrap_or(AUTO_ANDERSON),
                 rho_change_factor: 1.0,
+                newton: match (self.variant, self.newton_polish) {
+                    (VariantChoice::Newton, _) => NewtonUse::Alone,
+                    (_, Some(false)) => NewtonUse::Off,
+                    _ => NewtonUse::Polish,
+                },
             },
             VariantChoice::Named(v) => Resolved {
                 variant: v,
                 initial_rho: self.initial_rho.unwrap_or(InitialRho::Normal),
                 anderson: self.anderson.unwrap_or(0),
                 rho_change_factor: 1.0,
+                newton: if self.newton_polish == Some(true) {
+                    NewtonUse::Polish
+                } else {
+                    NewtonUse::Off
+                },
             },
         }
     }

@@ -4,10 +4,11 @@
 use crate::admm::{self, EngineState};
 use crate::contact::{contact_form, initial_rho, ContactForm};
 use crate::error::{Error, Status};
+use crate::newton::{FailReason, NewtonStatus};
 use crate::problem::Problem;
-use crate::settings::{Resolved, Settings};
-use crate::stats::{Stats, TracePoint};
-use std::time::Instant;
+use crate::settings::{NewtonUse, Resolved, Settings, NEWTON_MAX_STEPS};
+use crate::stats::{Phase, Stats, TracePoint};
+use std::time::{Duration, Instant};
 
 /// A solution of either form. `v` and `lambda` are empty for a local problem.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -111,7 +112,9 @@ impl Solver {
         Ok(())
     }
 
-    /// Runs ADMM. Without a preceding [`Solver::warm_start`], starts from zero.
+    /// Runs the solve: ADMM, finished by the semismooth Newton phase when the settings ask
+    /// for it (docs/algorithms.md §9). Without a preceding [`Solver::warm_start`], starts
+    /// from zero.
     pub fn solve(&mut self) -> Result<Status, Error> {
         let t0 = Instant::now();
         if !self.warm {
@@ -119,30 +122,116 @@ impl Solver {
             self.form.cold_start(&mut self.state);
         }
         self.warm = false;
-        let set = self.settings.engine_settings(&self.resolved);
-        let out = admm::run(self.form.as_mut(), &mut self.state, &set, t0)?;
-        let status = out.status.unwrap_or(Status::MaxIterations);
-        let mut error = out.error;
-        if status == Status::NumericalError {
-            // The form's own iterate comes from the step that blew up: recompute it from
-            // the last finite iterate, which the state holds, and measure that.
-            self.form.recover(&self.state)?;
-            let s = &self.state;
-            error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
+        let mut set = self.settings.engine_settings(&self.resolved);
+        let deadline =
+            t0.checked_add(Duration::try_from_secs_f64(set.time_limit).unwrap_or(Duration::MAX));
+        let mut stats = Stats {
+            setup_seconds: self.stats.setup_seconds,
+            ..Default::default()
+        };
+        self.trace.clear();
+        let mut status = None;
+        let mut error = f64::INFINITY;
+        // ADMM and Newton phases alternate until one meets the tolerance or a limit is hit;
+        // the iteration limit counts the steps of both.
+        while status.is_none() {
+            let left = self
+                .settings
+                .max_iterations
+                .saturating_sub(stats.iterations);
+            if self.resolved.newton != NewtonUse::Alone {
+                set.max_iterations = left;
+                let out = admm::run(self.form.as_mut(), &mut self.state, &set, t0)?;
+                stats.iterations += out.iterations;
+                stats.primal_residual = out.primal;
+                stats.dual_residual = out.dual;
+                stats.anderson_accepted += out.aa_accepted;
+                stats.anderson_rejected += out.aa_rejected;
+                let offset = stats.iterations - out.iterations;
+                self.trace.extend(out.trace.into_iter().map(|mut t| {
+                    t.iteration += offset;
+                    t
+                }));
+                error = out.error;
+                status = out.status;
+                if status == Some(Status::NumericalError) {
+                    // The form's own iterate comes from the step that blew up: recompute
+                    // it from the last finite iterate, which the state holds, and measure
+                    // that.
+                    self.form.recover(&self.state)?;
+                    let s = &self.state;
+                    error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
+                }
+                if !out.handed_over {
+                    break;
+                }
+            }
+            let left = self
+                .settings
+                .max_iterations
+                .saturating_sub(stats.iterations);
+            if left == 0 {
+                status = Some(Status::MaxIterations);
+                break;
+            }
+            // Newton alone may use every iteration left; as a polish, a bounded phase.
+            let steps = match self.resolved.newton {
+                NewtonUse::Alone => left,
+                _ => left.min(NEWTON_MAX_STEPS),
+            };
+            let newton =
+                self.form
+                    .polish(&mut self.state, self.settings.tolerance, steps, deadline)?;
+            stats.iterations += newton.iterations;
+            stats.newton_iterations += newton.iterations;
+            stats.newton_factorizations += newton.factorizations;
+            stats.newton_phases += 1;
+            error = error.min(newton.error);
+            if self.settings.trace {
+                self.trace.push(TracePoint {
+                    iteration: stats.iterations,
+                    seconds: t0.elapsed().as_secs_f64(),
+                    error: newton.error,
+                    primal_residual: f64::NAN,
+                    dual_residual: f64::NAN,
+                    rho: self.state.rho,
+                    anderson_accepted: stats.anderson_accepted,
+                    anderson_rejected: stats.anderson_rejected,
+                    phase: Phase::Newton,
+                });
+            }
+            if newton.converged() {
+                status = Some(Status::Solved);
+            } else if newton.status == NewtonStatus::Failed(FailReason::Deadline)
+                || t0.elapsed().as_secs_f64() > self.settings.time_limit
+            {
+                status = Some(Status::TimeLimit);
+            } else if self.resolved.newton == NewtonUse::Alone {
+                // Newton alone has nothing to fall back on.
+                status = Some(match newton.status {
+                    NewtonStatus::Failed(FailReason::MaxIterations) => Status::MaxIterations,
+                    NewtonStatus::Failed(FailReason::NonFinite) => Status::NumericalError,
+                    _ => Status::Stalled,
+                });
+            } else {
+                // Back to ADMM from Newton's best iterate, handing over again only once the
+                // error is well below where this Newton phase failed, or after a stall twice
+                // as long: Newton then costs a bounded share of the solve.
+                stats.newton_fallbacks += 1;
+                if let Some(h) = set.handover.as_mut() {
+                    h.error_below = 1e-2 * h.error_below.min(error);
+                    h.stall_checks *= 2;
+                }
+            }
         }
-        self.trace = out.trace;
+        let status = status.unwrap_or(Status::MaxIterations);
         self.stats = Stats {
             status,
-            iterations: out.iterations,
             error,
-            primal_residual: out.primal,
-            dual_residual: out.dual,
             rho: self.state.rho,
             refactorizations: self.form.refactorizations(),
-            anderson_accepted: out.aa_accepted,
-            anderson_rejected: out.aa_rejected,
-            setup_seconds: self.stats.setup_seconds,
             solve_seconds: t0.elapsed().as_secs_f64(),
+            ..stats
         };
         Ok(status)
     }

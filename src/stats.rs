@@ -7,7 +7,7 @@ use crate::error::Status;
 pub struct Stats {
     /// Outcome.
     pub status: Status,
-    /// ADMM iterations done.
+    /// Iterations done: ADMM iterations and semismooth Newton steps.
     pub iterations: usize,
     /// Final error measure (docs/algorithms.md §3).
     pub error: f64,
@@ -23,6 +23,14 @@ pub struct Stats {
     pub anderson_accepted: usize,
     /// Anderson steps rejected by the safeguard.
     pub anderson_rejected: usize,
+    /// Of `iterations`, the semismooth Newton steps.
+    pub newton_iterations: usize,
+    /// Numeric factorizations of the Newton phases (not in `refactorizations`).
+    pub newton_factorizations: usize,
+    /// Newton phases run.
+    pub newton_phases: usize,
+    /// Newton phases that ended above the tolerance, after which ADMM resumed.
+    pub newton_fallbacks: usize,
     /// Seconds spent building the solver (symbolic and first numeric factorization).
     pub setup_seconds: f64,
     /// Seconds spent in the last solve.
@@ -41,10 +49,24 @@ impl Default for Stats {
             refactorizations: 0,
             anderson_accepted: 0,
             anderson_rejected: 0,
+            newton_iterations: 0,
+            newton_factorizations: 0,
+            newton_phases: 0,
+            newton_fallbacks: 0,
             setup_seconds: 0.0,
             solve_seconds: 0.0,
         }
     }
+}
+
+/// Which phase of the solve an iteration belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Phase {
+    /// An ADMM iteration.
+    #[default]
+    Admm,
+    /// The end of a semismooth Newton phase (one point per phase).
+    Newton,
 }
 
 /// One recorded iteration (only when the trace is switched on).
@@ -66,4 +88,7 @@ pub struct TracePoint {
     pub anderson_accepted: usize,
     /// Anderson steps rejected so far in this solve.
     pub anderson_rejected: usize,
+    /// The phase: an ADMM iteration, or the end of a Newton phase (whose `iteration`
+    /// counts its steps with the ADMM iterations before it; residuals are NaN there).
+    pub phase: Phase,
 }

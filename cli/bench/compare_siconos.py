@@ -12,7 +12,8 @@ Needs Debian's python3-siconos (run with any python3; Siconos is called via /usr
 """
 import argparse, glob, json, os, statistics, subprocess, sys, tempfile
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# The workspace root: this file is cli/bench/<name>.py.
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SHARED = os.environ.get("CADMM_SHARED", os.path.join(ROOT, "..", "shared"))
 sys.path.insert(0, os.path.join(SHARED, "tools"))
 
@@ -42,7 +43,7 @@ def run_cadmm(args, path):
 def run_siconos(args, path):
     with tempfile.TemporaryDirectory() as d:
         sol = os.path.join(d, "s.h5")
-        p = subprocess.run(["/usr/bin/python3", os.path.join(ROOT, "bench", "siconos_solve.py"), path,
+        p = subprocess.run(["/usr/bin/python3", os.path.join(ROOT, "cli", "bench", "siconos_solve.py"), path,
                             "--solver", "ADMM", "--tol", str(args.tol), "--time-limit", str(args.time_limit),
                             "--out", sol], capture_output=True, text=True)
         if p.returncode != 0:

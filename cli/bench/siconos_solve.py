@@ -32,7 +32,8 @@ import numpy as np
 import h5py
 
 # Shared tools (fc_error.py, fclib_read.py): <project root>/../shared/tools, or $CADMM_SHARED/tools.
-PROJECT_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# The workspace root: this file is cli/bench/siconos_solve.py.
+PROJECT_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SHARED = os.environ.get('CADMM_SHARED', os.path.join(PROJECT_ROOT, '..', 'shared'))
 sys.path.insert(0, os.path.join(SHARED, 'tools'))
 try:

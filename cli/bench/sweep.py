@@ -8,7 +8,8 @@ and a summary; exit code 1 when a file is not solved at tol by the independent m
 """
 import argparse, concurrent.futures as cf, glob, json, os, subprocess, sys, tempfile
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# The workspace root: this file is cli/bench/<name>.py.
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SHARED = os.environ.get("CADMM_SHARED", os.path.join(ROOT, "..", "shared"))
 
 

@@ -10,7 +10,7 @@ use std::process::ExitCode;
 pub struct SolveArgs {
     /// FCLib HDF5 problem file (fclib_global or fclib_local).
     file: PathBuf,
-    /// Variant: auto, cp-N ... vp-RR-Spectral.
+    /// Variant: auto, newton (semismooth Newton alone), cp-N ... vp-RR-Spectral.
     #[arg(long, default_value = "auto")]
     variant: String,
     /// Tolerance on the error measure.
@@ -31,6 +31,9 @@ pub struct SolveArgs {
     /// Initial rho rule: normal, acary, ghadimi, dicairano, or a number (given).
     #[arg(long)]
     initial_rho: Option<String>,
+    /// Newton polish: on or off; default: the variant's (on for auto, off for named variants).
+    #[arg(long)]
+    newton: Option<String>,
     /// s update: internal or external.
     #[arg(long, default_value = "internal")]
     s_update: String,
@@ -60,6 +63,17 @@ fn settings_from(a: &SolveArgs) -> Result<Settings, cadmm::Error> {
             })
         }
     };
+    let newton_polish = match a.newton.as_deref() {
+        None => None,
+        Some("on") => Some(true),
+        Some("off") => Some(false),
+        Some(other) => {
+            return Err(cadmm::Error::InvalidSetting {
+                name: "newton",
+                reason: format!("expected on or off, got '{other}'"),
+            })
+        }
+    };
     let s = Settings {
         tolerance: a.tol,
         max_iterations: a.max_iter,
@@ -70,6 +84,7 @@ fn settings_from(a: &SolveArgs) -> Result<Settings, cadmm::Error> {
         anderson: a.anderson,
         anderson_interval: a.anderson_interval,
         trace: false,
+        newton_polish,
     };
     s.validate()?;
     Ok(s)
@@ -103,7 +118,7 @@ pub fn run(a: SolveArgs) -> ExitCode {
         }
         let r = solver.resolved();
         Ok(format!(
-            "{{\"file\": \"{}\", \"form\": \"{form}\", \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"seconds\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"rho\": {}, \"refactorizations\": {}, \"variant\": \"{}\", \"initial_rho\": \"{}\", \"anderson\": {}, \"anderson_accepted\": {}, \"anderson_rejected\": {}}}",
+            "{{\"file\": \"{}\", \"form\": \"{form}\", \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"seconds\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"rho\": {}, \"refactorizations\": {}, \"variant\": \"{}\", \"initial_rho\": \"{}\", \"anderson\": {}, \"anderson_accepted\": {}, \"anderson_rejected\": {}, \"newton\": \"{:?}\", \"newton_iterations\": {}, \"newton_factorizations\": {}, \"newton_phases\": {}, \"newton_fallbacks\": {}}}",
             file.display().to_string().replace('\\', "\\\\").replace('"', "\\\""),
             status.name(),
             st.iterations,
@@ -118,6 +133,11 @@ pub fn run(a: SolveArgs) -> ExitCode {
             r.anderson,
             st.anderson_accepted,
             st.anderson_rejected,
+            r.newton,
+            st.newton_iterations,
+            st.newton_factorizations,
+            st.newton_phases,
+            st.newton_fallbacks,
         ))
     };
     match run() {

@@ -37,6 +37,7 @@ fn solve_ridge(rule: RhoRule) -> (usize, f64) {
         trace: false,
         rho_range: 1e8,
         rho_change_factor: 1.0,
+        handover: None,
     };
     let out = run(&mut p, &mut state, &set, Instant::now()).unwrap();
     assert!(out.error <= 1e-10, "{rule:?}: error {}", out.error);

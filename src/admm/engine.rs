@@ -5,7 +5,7 @@ use super::rho_rule::{IterationView, RhoAdapter};
 use super::{Relaxation, SUpdate, Splitting, Variant};
 use crate::csc::norm2;
 use crate::error::{Error, Status};
-use crate::stats::TracePoint;
+use crate::stats::{Phase, TracePoint};
 use std::time::Instant;
 
 /// Settings the loop needs.
@@ -40,6 +40,19 @@ pub struct EngineSettings {
     /// factor (1 = every change). Fewer changes mean fewer refactorizations and longer
     /// Anderson histories, which are reset at each change.
     pub rho_change_factor: f64,
+    /// When to stop and hand the iterate over to a finishing phase (none: run to the end).
+    pub handover: Option<Handover>,
+}
+
+/// When the loop hands its iterate over to a finishing phase (the Newton polish): once the
+/// error measure is below `error_below`, or when it stalls, i.e. fails to halve over
+/// `stall_checks` consecutive evaluations.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Handover {
+    /// Hand over at or below this error.
+    pub error_below: f64,
+    /// Hand over when the error has not halved over this many evaluations (0: never).
+    pub stall_checks: usize,
 }
 
 /// The iterate the loop works on; the caller initializes it (warm start) and reads it back.
@@ -74,6 +87,8 @@ pub struct EngineOutcome {
     pub aa_rejected: usize,
     /// Per-iteration trace (empty unless asked for).
     pub trace: Vec<TracePoint>,
+    /// The loop stopped to hand over (status `None`): see [`Handover`].
+    pub handed_over: bool,
 }
 
 fn finite(x: &[f64]) -> bool {
@@ -125,6 +140,10 @@ pub fn run(
 
     let mut rule = RhoAdapter::new(set.variant.rule, l);
     let mut rho = state.rho;
+    // Errors of the last evaluations, for the stall test of the handover.
+    let stall_checks = set.handover.map_or(0, |h| h.stall_checks);
+    let mut recent = vec![f64::INFINITY; stall_checks];
+    let mut checks = 0usize;
     let mut inner_tol = if set.s_update == SUpdate::External {
         1e-3f64.max(set.tolerance)
     } else {
@@ -201,11 +220,24 @@ pub fn run(
                     rho,
                     anderson_accepted: out.aa_accepted,
                     anderson_rejected: out.aa_rejected,
+                    phase: Phase::Admm,
                 });
             }
             if out.error <= set.tolerance {
                 out.status = Some(Status::Solved);
                 break;
+            }
+            if let Some(h) = set.handover {
+                let stalled = stall_checks > 0 && {
+                    let oldest = recent[checks % stall_checks];
+                    recent[checks % stall_checks] = out.error;
+                    checks += 1;
+                    checks > stall_checks && out.error > 0.5 * oldest
+                };
+                if out.error <= h.error_below || stalled {
+                    out.handed_over = true;
+                    break;
+                }
             }
         }
         if start.elapsed().as_secs_f64() > set.time_limit {
@@ -317,7 +349,7 @@ pub fn run(
             res_prev = f64::INFINITY;
         }
     }
-    if out.status.is_none() {
+    if out.status.is_none() && !out.handed_over {
         out.status = Some(Status::MaxIterations);
     }
     if out.status != Some(Status::Solved) {

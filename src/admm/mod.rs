@@ -20,7 +20,7 @@ mod variant;
 /// Euclidean norm, for plug-ins computing their residuals and scales.
 pub use crate::csc::norm2;
 pub use anderson::Anderson;
-pub use engine::{run, EngineOutcome, EngineSettings, EngineState};
+pub use engine::{run, EngineOutcome, EngineSettings, EngineState, Handover};
 pub use rho_rule::RhoRule;
 pub use variant::{Relaxation, Variant, VARIANT_NAMES};
 

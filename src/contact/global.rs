@@ -12,8 +12,10 @@ use crate::error::Error;
 use crate::linsys::param_matrix::{gram_triplets, triplets};
 use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
 use crate::measure::{global_error_with, MeasureWork};
+use crate::newton::{GlobalNewton, NewtonOutcome};
 use crate::problem::{GlobalProblem, Problem};
 use crate::solver::Solution;
+use std::time::Instant;
 
 /// Regularization of the joint block of the quasi-definite system.
 const JOINT_DELTA: f64 = 1e-9;
@@ -35,6 +37,8 @@ pub struct GlobalSplitting {
     r: Vec<f64>,
     lambda: Vec<f64>,
     measure: MeasureWork,
+    /// The Newton phase, built on first use (and again after an update).
+    newton: Option<GlobalNewton>,
 }
 
 impl GlobalSplitting {
@@ -66,6 +70,7 @@ impl GlobalSplitting {
             r: vec![0.0; m],
             lambda: vec![0.0; dim - n],
             measure,
+            newton: None,
             p,
         })
     }
@@ -257,6 +262,8 @@ impl ContactForm for GlobalSplitting {
         self.factor.replace_matrix(matrix)?;
         self.p = p;
         self.reset_shift();
+        // Its per-contact scaling follows the values.
+        self.newton = None;
         Ok(())
     }
 
@@ -267,6 +274,9 @@ impl ContactForm for GlobalSplitting {
     fn cold_start(&mut self, state: &mut EngineState) {
         state.y.fill(0.0);
         state.zeta.fill(0.0);
+        // No velocity carried over from a previous solve either (the Newton phase alone
+        // starts from it).
+        self.sol.fill(0.0);
         self.reset_shift();
     }
 
@@ -328,6 +338,44 @@ impl ContactForm for GlobalSplitting {
 
     fn refactorizations(&self) -> usize {
         self.factor.refactorizations() + self.mass.refactorizations()
+    }
+
+    fn polish(
+        &mut self,
+        state: &mut EngineState,
+        tol: f64,
+        max_steps: usize,
+        deadline: Option<Instant>,
+    ) -> Result<NewtonOutcome, Error> {
+        let Solution {
+            mut r,
+            mut v,
+            mut lambda,
+            ..
+        } = self.solution(state);
+        let start = global_error_with(&self.p, &r, &v, &lambda, &mut self.measure);
+        if self.newton.is_none() {
+            self.newton = Some(GlobalNewton::new(&self.p)?);
+        }
+        let newton = self.newton.as_mut().expect("built above");
+        let out = newton.solve(
+            &self.p,
+            &mut v,
+            &mut r,
+            &mut lambda,
+            tol,
+            max_steps,
+            deadline,
+        )?;
+        if out.error < start {
+            self.warm_start(&r, Some(&v), state)?;
+            let n = self.p.n();
+            self.sol[..n].copy_from_slice(&v);
+            for (s, l) in self.sol[n..].iter_mut().zip(&lambda) {
+                *s = -l;
+            }
+        }
+        Ok(out)
     }
 }
 

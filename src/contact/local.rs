@@ -11,8 +11,10 @@ use crate::error::Error;
 use crate::linsys::param_matrix::triplets;
 use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
 use crate::measure::{local_error_with, MeasureWork};
+use crate::newton::{LocalNewton, NewtonOutcome};
 use crate::problem::{LocalProblem, Problem};
 use crate::solver::Solution;
+use std::time::Instant;
 
 /// The local contact problem as an ADMM splitting.
 pub struct LocalSplitting {
@@ -24,6 +26,8 @@ pub struct LocalSplitting {
     zero: Vec<f64>,
     u: Vec<f64>,
     measure: MeasureWork,
+    /// The Newton phase, built on first use (and again after an update).
+    newton: Option<LocalNewton>,
 }
 
 impl LocalSplitting {
@@ -43,6 +47,7 @@ impl LocalSplitting {
             zero: vec![0.0; m],
             u: vec![0.0; m],
             measure: MeasureWork::new(&Problem::Local(p.clone())),
+            newton: None,
             p,
         })
     }
@@ -162,6 +167,8 @@ impl ContactForm for LocalSplitting {
         self.factor.replace_matrix(matrix)?;
         self.p = p;
         self.reset_shift();
+        // Its per-contact scaling follows the values.
+        self.newton = None;
         Ok(())
     }
 
@@ -218,5 +225,25 @@ impl ContactForm for LocalSplitting {
 
     fn refactorizations(&self) -> usize {
         self.factor.refactorizations()
+    }
+
+    fn polish(
+        &mut self,
+        state: &mut EngineState,
+        tol: f64,
+        max_steps: usize,
+        deadline: Option<Instant>,
+    ) -> Result<NewtonOutcome, Error> {
+        let mut r = state.y.clone();
+        let start = local_error_with(&self.p, &r, &mut self.measure);
+        if self.newton.is_none() {
+            self.newton = Some(LocalNewton::new(&self.p)?);
+        }
+        let newton = self.newton.as_mut().expect("built above");
+        let out = newton.solve(&self.p, &mut r, tol, max_steps, deadline)?;
+        if out.error < start {
+            self.warm_start(&r, None, state)?;
+        }
+        Ok(out)
     }
 }

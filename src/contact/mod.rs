@@ -15,8 +15,10 @@ pub(crate) use local::LocalSplitting;
 use crate::admm::{EngineState, Splitting};
 use crate::cone::{de_saxce_term, get3, set3};
 use crate::error::Error;
+use crate::newton::NewtonOutcome;
 use crate::problem::Problem;
 use crate::solver::Solution;
+use std::time::Instant;
 
 /// A contact problem form as the solver drives it: the engine's [`Splitting`] plus what
 /// the solver needs around a solve.
@@ -43,6 +45,16 @@ pub(crate) trait ContactForm: Splitting {
     fn solution(&self, state: &EngineState) -> Solution;
     /// Numeric factorizations so far.
     fn refactorizations(&self) -> usize;
+    /// The Newton phase from the iterate in `state`: when it ends below the error of its
+    /// start, its best iterate becomes the form's iterate and a warm start in `state` that
+    /// ADMM can resume from. The Newton solver is built on first use.
+    fn polish(
+        &mut self,
+        state: &mut EngineState,
+        tol: f64,
+        max_steps: usize,
+        deadline: Option<Instant>,
+    ) -> Result<NewtonOutcome, Error>;
 }
 
 /// Builds the form of `problem`.

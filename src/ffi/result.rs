@@ -44,6 +44,9 @@ pub const CADMM_STATUS_MAX_ITERATIONS: cadmm_status = 1;
 pub const CADMM_STATUS_TIME_LIMIT: cadmm_status = 2;
 /// An iterate became non-finite; the solution is the last finite iterate.
 pub const CADMM_STATUS_NUMERICAL_ERROR: cadmm_status = 3;
+/// The method stopped making progress before the tolerance (only the "newton" variant,
+/// which has no ADMM to fall back on); the solution is its best iterate.
+pub const CADMM_STATUS_STALLED: cadmm_status = 4;
 
 /// The C status code of a [`Status`].
 pub(crate) fn status_code(s: Status) -> cadmm_status {
@@ -52,6 +55,7 @@ pub(crate) fn status_code(s: Status) -> cadmm_status {
         Status::MaxIterations => CADMM_STATUS_MAX_ITERATIONS,
         Status::TimeLimit => CADMM_STATUS_TIME_LIMIT,
         Status::NumericalError => CADMM_STATUS_NUMERICAL_ERROR,
+        Status::Stalled => CADMM_STATUS_STALLED,
     }
 }
 

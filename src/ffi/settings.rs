@@ -60,9 +60,11 @@ pub unsafe extern "C" fn cadmm_settings_new(out: *mut *mut cadmm_settings) -> ca
     })
 }
 
-/// Chooses the ADMM variant: "auto" (the default) or one of "cp-N", "cp-R", "cp-RR",
-/// "vp-N-He", "vp-R-He", "vp-RR-He", "vp-N-Wohlberg", "vp-R-Wohlberg", "vp-RR-Wohlberg",
-/// "vp-N-Spectral", "vp-R-Spectral", "vp-RR-Spectral". Errors: `CADMM_ERR_NULL_POINTER`,
+/// Chooses the variant: "auto" (the default: ADMM finished by the semismooth Newton
+/// phase), "newton" (semismooth Newton alone from the initial guess), or one of the ADMM
+/// variants "cp-N", "cp-R", "cp-RR", "vp-N-He", "vp-R-He", "vp-RR-He", "vp-N-Wohlberg",
+/// "vp-R-Wohlberg", "vp-RR-Wohlberg", "vp-N-Spectral", "vp-R-Spectral", "vp-RR-Spectral"
+/// (docs/algorithms.md §6.5, §9). Errors: `CADMM_ERR_NULL_POINTER`,
 /// `CADMM_ERR_INVALID_SETTING` (unknown name; the settings are unchanged).
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_settings_set_variant(
@@ -222,6 +224,23 @@ pub unsafe extern "C" fn cadmm_settings_set_trace(
     unsafe {
         change(s, |set| {
             set.trace = on;
+            Ok(())
+        })
+    }
+}
+
+/// Switches the semismooth Newton finishing phase on or off (docs/algorithms.md §9). By
+/// default it is on for "auto" and off for the named ADMM variants; with "newton" the
+/// setting is ignored. Errors: `CADMM_ERR_NULL_POINTER`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_newton(
+    s: *mut cadmm_settings,
+    on: bool,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            set.newton_polish = Some(on);
             Ok(())
         })
     }

@@ -11,6 +11,7 @@ use super::settings::{cadmm_settings, settings_ref};
 use super::stats::{cadmm_stats, cadmm_trace_point, write_stats, STATS_MIN_SIZE};
 use crate::problem::Problem;
 use crate::solver::Solver;
+use crate::stats::Phase;
 use std::cell::RefCell;
 use std::ffi::{c_char, CString};
 
@@ -382,6 +383,36 @@ pub unsafe extern "C" fn cadmm_solver_get_trace(
         })?;
         // SAFETY: checked non-NULL and aligned.
         out.write(cadmm_trace_point::from(point));
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver(sv, body) }
+}
+
+/// The phase of trace point `i` (`0 <= i < cadmm_solver_trace_len`): 0 for an ADMM
+/// iteration, 1 for the end of a semismooth Newton phase (whose point has NaN residuals).
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (index out of range).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_get_trace_phase(
+    sv: *const cadmm_solver,
+    i: usize,
+    phase: *mut i32,
+) -> cadmm_result {
+    let body = |sv: &cadmm_solver| -> FfiResult {
+        check_ptr("phase", phase.cast_const())?;
+        let trace = sv.solver.trace();
+        let point = trace.get(i).ok_or_else(|| {
+            Failure::new(
+                CADMM_ERR_INVALID_VALUE,
+                format!("trace index {i} is out of range (length {})", trace.len()),
+            )
+        })?;
+        let code = match point.phase {
+            Phase::Admm => 0,
+            Phase::Newton => 1,
+        };
+        // SAFETY: checked non-NULL and aligned.
+        phase.write(code);
         Ok(())
     };
     // SAFETY: the caller's contract, forwarded.

@@ -20,7 +20,7 @@ pub struct cadmm_stats {
     pub struct_size: usize,
     /// Outcome of the last solve (`CADMM_STATUS_*`).
     pub status: cadmm_status,
-    /// ADMM iterations done.
+    /// Iterations done: ADMM iterations and semismooth Newton steps.
     pub iterations: u64,
     /// Final error measure (docs/algorithms.md §3).
     pub error: f64,
@@ -40,6 +40,14 @@ pub struct cadmm_stats {
     pub anderson_accepted: u64,
     /// Anderson acceleration steps rejected by the safeguard in the last solve.
     pub anderson_rejected: u64,
+    /// Of `iterations`, the semismooth Newton steps of the last solve.
+    pub newton_iterations: u64,
+    /// Numeric factorizations of the Newton phases of the last solve.
+    pub newton_factorizations: u64,
+    /// Newton phases run in the last solve.
+    pub newton_phases: u64,
+    /// Newton phases that ended above the tolerance, after which ADMM resumed.
+    pub newton_fallbacks: u64,
 }
 
 /// Smallest `struct_size` accepted: the fields up to and including `solve_seconds`.
@@ -60,6 +68,10 @@ impl From<&Stats> for cadmm_stats {
             solve_seconds: s.solve_seconds,
             anderson_accepted: s.anderson_accepted as u64,
             anderson_rejected: s.anderson_rejected as u64,
+            newton_iterations: s.newton_iterations as u64,
+            newton_factorizations: s.newton_factorizations as u64,
+            newton_phases: s.newton_phases as u64,
+            newton_fallbacks: s.newton_fallbacks as u64,
         }
     }
 }
@@ -100,7 +112,11 @@ pub(crate) unsafe fn write_stats(dst: *mut cadmm_stats, size: usize, src: &cadmm
         setup_seconds,
         solve_seconds,
         anderson_accepted,
-        anderson_rejected
+        anderson_rejected,
+        newton_iterations,
+        newton_factorizations,
+        newton_phases,
+        newton_fallbacks
     );
 }
 

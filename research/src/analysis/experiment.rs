@@ -111,6 +111,7 @@ fn engine_settings(anderson: usize, tolerance: f64, max_iterations: usize) -> En
         trace: true,
         rho_range: 1.0,
         rho_change_factor: 1.0,
+        handover: None,
     }
 }
 

@@ -366,6 +366,7 @@ fn short_status(s: Status) -> &'static str {
         Status::MaxIterations => "maxit",
         Status::TimeLimit => "time",
         Status::NumericalError => "nan",
+        Status::Stalled => "stall",
     }
 }
 

@@ -29,7 +29,12 @@ impl Limits {
     /// reading the problem and the setup (factorization), which the solver's own limit
     /// does not cover.
     pub fn deadline(&self) -> Duration {
-        Duration::from_secs_f64(self.time_limit + self.time_limit.max(60.0) + 30.0)
+        self.deadline_for(1)
+    }
+
+    /// The same for a child that runs `solves` solves, each within the time limit.
+    pub fn deadline_for(&self, solves: usize) -> Duration {
+        Duration::from_secs_f64(solves as f64 * self.time_limit + self.time_limit.max(60.0) + 30.0)
     }
 }
 
@@ -139,15 +144,21 @@ pub fn cadmm(
     sol: &Path,
 ) -> Run {
     let n = lim.tols.len();
-    let SolverSpec::Cadmm { variant, anderson } = spec else {
+    let SolverSpec::Cadmm {
+        variant,
+        anderson,
+        newton,
+    } = spec
+    else {
         unreachable!("run::cadmm is only called for cadmm solvers")
     };
     let _ = std::fs::remove_file(sol);
+    let tols: Vec<String> = lim.tols.iter().map(|t| format!("{t:e}")).collect();
     let mut cmd = Command::new(exe);
     cmd.arg("bench-worker")
         .arg(file)
         .args(["--variant", variant])
-        .args(["--tol", &format!("{:e}", lim.tmin())])
+        .args(["--tols", &tols.join(",")])
         .args(["--time-limit", &format!("{:e}", lim.time_limit)])
         .args(["--max-iter", &lim.max_iter.to_string()])
         .arg("--out")
@@ -155,7 +166,11 @@ pub fn cadmm(
     if let Some(m) = anderson {
         cmd.args(["--anderson", &m.to_string()]);
     }
-    let (stdout, stderr) = match runner::run(cmd, lim.deadline()) {
+    if let Some(on) = newton {
+        cmd.args(["--newton", &on.to_string()]);
+    }
+    // One untraced solve per tolerance and the traced one.
+    let (stdout, stderr) = match runner::run(cmd, lim.deadline_for(n + 1)) {
         Err(e) => return Run::failure("error", n, Some(e)),
         Ok(ChildEnd::Killed) => return Run::failure("timeout", n, None),
         Ok(ChildEnd::Exited {
@@ -174,14 +189,40 @@ pub fn cadmm(
     let Ok(j) = parsed else {
         return Run::failure("crash", n, last_line(&stderr).or(Some(stdout)));
     };
-    let setup = number(&j["setup_seconds"]);
-    let seconds = setup + number(&j["solve_seconds"]);
-    let reported = j["status"].as_str().unwrap_or("failed").to_string();
+    // The timed figures: one untraced solve per tolerance.
+    let runs = j["runs"].as_array().cloned().unwrap_or_default();
+    let total = |r: &serde_json::Value| number(&r["setup_seconds"]) + number(&r["solve_seconds"]);
+    let Some(last) = runs
+        .iter()
+        .find(|r| r["tol"].as_f64() == Some(lim.tmin()))
+        .cloned()
+    else {
+        return Run::failure("crash", n, Some("no run at the smallest tolerance".into()));
+    };
+    let seconds = total(&last);
+    let reported = last["status"].as_str().unwrap_or("failed").to_string();
     let error = match measure(problem, sol) {
         Ok(e) => e,
         Err(e) => return Run::failure("error", n, Some(e)),
     };
     let status = verdict(&reported, error, seconds, lim);
+    // Seconds to each tolerance: its own run's, when it solved (the smallest one's also
+    // re-measured above).
+    let to_tol = lim
+        .tols
+        .iter()
+        .map(|&tol| {
+            let run = runs.iter().find(|r| r["tol"].as_f64() == Some(tol));
+            let solved = run.is_some_and(|r| r["status"] == "solved")
+                && (tol > lim.tmin() || status == "solved");
+            match run {
+                Some(r) if solved && total(r) <= lim.time_limit => total(r),
+                _ => f64::INFINITY,
+            }
+        })
+        .collect();
+    // The curve of the traced run, shifted by its setup.
+    let setup = number(&last["setup_seconds"]);
     let trace: Vec<(f64, f64)> = j["trace"]
         .as_array()
         .map(|a| {
@@ -190,27 +231,9 @@ pub fn cadmm(
                 .collect()
         })
         .unwrap_or_default();
-    // The trajectory does not depend on the tolerance (it only decides when to stop), so
-    // the first trace point below a tolerance is when a run asked for it would have stopped.
-    let to_tol = lim
-        .tols
-        .iter()
-        .map(|&tol| {
-            let hit = trace
-                .iter()
-                .find(|p| p.1 <= tol)
-                .map_or(f64::INFINITY, |p| p.0);
-            let confirmed = tol > lim.tmin() || status == "solved";
-            if confirmed && hit <= lim.time_limit {
-                hit
-            } else {
-                f64::INFINITY
-            }
-        })
-        .collect();
     Run {
         status,
-        iterations: j["iterations"].as_u64().map(|k| k as usize),
+        iterations: last["iterations"].as_u64().map(|k| k as usize),
         seconds: Some(seconds),
         error: Some(error),
         to_tol,

@@ -19,12 +19,15 @@ const SICONOS: [(&str, bool, bool); 6] = [
 /// One solver configuration of a benchmark.
 #[derive(Debug, Clone, PartialEq)]
 pub enum SolverSpec {
-    /// cadmm with a variant and an optional Anderson memory (`None`: the variant's default).
+    /// cadmm with a variant, an optional Anderson memory and an optional Newton polish
+    /// switch (`None`: the variant's default).
     Cadmm {
-        /// `auto` or a seed 000 name, as the `solve` command takes it.
+        /// `auto`, `newton` or an ADMM variant name, as the `solve` command takes it.
         variant: String,
         /// Anderson memory from the `+aaM` suffix.
         anderson: Option<usize>,
+        /// Newton polish from the `+newton` / `+nonewton` suffix.
+        newton: Option<bool>,
     },
     /// A Siconos numerics solver run by the peer script.
     Siconos {
@@ -38,18 +41,27 @@ impl SolverSpec {
     pub fn parse(s: &str) -> Result<Self, String> {
         let s = s.trim();
         if let Some(rest) = s.strip_prefix("cadmm:") {
-            let (variant, anderson) = match rest.split_once('+') {
-                None => (rest, None),
-                Some((v, aa)) => {
-                    let m = aa
-                        .strip_prefix("aa")
-                        .and_then(|m| m.parse::<usize>().ok())
-                        .ok_or_else(|| {
-                            format!("'{s}': the suffix must be +aaM with M the Anderson memory")
-                        })?;
-                    (v, Some(m))
+            let mut parts = rest.split('+');
+            let variant = parts.next().unwrap_or_default();
+            let (mut anderson, mut newton) = (None, None);
+            for suffix in parts {
+                match suffix {
+                    "newton" => newton = Some(true),
+                    "nonewton" => newton = Some(false),
+                    _ => {
+                        let m = suffix
+                            .strip_prefix("aa")
+                            .and_then(|m| m.parse::<usize>().ok())
+                            .ok_or_else(|| {
+                                format!(
+                                    "'{s}': a suffix is +aaM (Anderson memory M), +newton or \
+                                     +nonewton"
+                                )
+                            })?;
+                        anderson = Some(m);
+                    }
                 }
-            };
+            }
             VariantChoice::from_name(variant).map_err(|e| format!("'{s}': {e}"))?;
             if anderson.is_some_and(|m| m > 64) {
                 return Err(format!("'{s}': Anderson memory must be at most 64"));
@@ -57,6 +69,7 @@ impl SolverSpec {
             return Ok(SolverSpec::Cadmm {
                 variant: variant.to_string(),
                 anderson,
+                newton,
             });
         }
         if let Some(rest) = s.strip_prefix("siconos:") {
@@ -74,17 +87,29 @@ impl SolverSpec {
                 });
         }
         Err(format!(
-            "'{s}': expected cadmm:<auto|variant>[+aaM] or siconos:<NAME>"
+            "'{s}': expected cadmm:<auto|newton|variant>[+aaM][+newton|+nonewton] or siconos:<NAME>"
         ))
     }
 
     /// The name in results and legends (canonical spelling of what was asked).
     pub fn label(&self) -> String {
         match self {
-            SolverSpec::Cadmm { variant, anderson } => match anderson {
-                None => format!("cadmm:{variant}"),
-                Some(m) => format!("cadmm:{variant}+aa{m}"),
-            },
+            SolverSpec::Cadmm {
+                variant,
+                anderson,
+                newton,
+            } => {
+                let mut label = format!("cadmm:{variant}");
+                if let Some(m) = anderson {
+                    label += &format!("+aa{m}");
+                }
+                match newton {
+                    Some(true) => label += "+newton",
+                    Some(false) => label += "+nonewton",
+                    None => {}
+                }
+                label
+            }
             SolverSpec::Siconos { name } => format!("siconos:{name}"),
         }
     }
@@ -134,10 +159,13 @@ mod tests {
             a,
             SolverSpec::Cadmm {
                 variant: "cp-N".into(),
-                anderson: Some(5)
+                anderson: Some(5),
+                newton: None,
             }
         );
         assert_eq!(a.file_tag(), "cadmm_cp-N_aa5");
+        let b = SolverSpec::parse("cadmm:auto+nonewton").unwrap();
+        assert_eq!(b.label(), "cadmm:auto+nonewton");
         assert_eq!(
             SolverSpec::parse("cadmm:auto").unwrap().file_tag(),
             "cadmm_auto"
@@ -153,6 +181,7 @@ mod tests {
             "cadmm:vp-X",
             "cadmm:auto+5",
             "cadmm:auto+aa65",
+            "cadmm:auto+newtonn",
             "siconos:FOO",
             "pin:ADMM",
         ] {

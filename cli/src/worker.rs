@@ -1,12 +1,17 @@
-//! `cadmm bench-worker` (hidden): one traced cadmm solve, run by `cadmm bench` in a child
-//! process so that a hang in the factorization or a crash cannot take the benchmark down.
+//! `cadmm bench-worker` (hidden): the cadmm solves of one benchmark cell, run by
+//! `cadmm bench` in a child process so that a hang in the factorization or a crash cannot
+//! take the benchmark down.
 //!
-//! Writes the solution to `--out` and prints one JSON line:
-//! `{"status", "iterations", "setup_seconds", "solve_seconds", "trace": [[seconds, error|null], ...]}`
-//! where trace seconds count from the start of the solve (setup excluded).
+//! One untraced solve per tolerance (a new solver each, as a user would run it: these are
+//! the timed figures), then one traced solve at the smallest tolerance whose trace only
+//! draws the error-against-time curve. Writes the solution of the untraced solve at the
+//! smallest tolerance to `--out` and prints one JSON line:
+//! `{"runs": [{"tol", "status", "iterations", "setup_seconds", "solve_seconds"}, ...],
+//!   "trace": [[seconds, error|null], ...]}` (runs in the order of `--tols`; trace seconds
+//! count from the start of the traced solve, setup excluded).
 
 use crate::solve::json_number;
-use cadmm::{fclib, Settings, Solver, VariantChoice};
+use cadmm::{fclib, Problem, Settings, Solver, VariantChoice};
 use clap::Args;
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -17,16 +22,19 @@ use std::process::ExitCode;
 pub struct WorkerArgs {
     /// FCLib problem file.
     file: PathBuf,
-    /// `auto` or a seed 000 variant name.
+    /// `auto`, `newton` or an ADMM variant name.
     #[arg(long)]
     variant: String,
     /// Anderson memory; default: the variant's.
     #[arg(long)]
     anderson: Option<usize>,
-    /// Tolerance (the smallest of the benchmark).
+    /// Newton polish on or off; default: the variant's.
     #[arg(long)]
-    tol: f64,
-    /// Time limit of the solve, seconds.
+    newton: Option<bool>,
+    /// Tolerances, comma separated; the smallest one's solution is written.
+    #[arg(long, value_delimiter = ',')]
+    tols: Vec<f64>,
+    /// Time limit of each solve, seconds.
     #[arg(long)]
     time_limit: f64,
     /// Iteration limit.
@@ -37,23 +45,43 @@ pub struct WorkerArgs {
     out: PathBuf,
 }
 
-fn work(a: &WorkerArgs) -> Result<String, cadmm::Error> {
-    let settings = Settings {
-        tolerance: a.tol,
+fn settings(a: &WorkerArgs, tol: f64, trace: bool) -> Result<Settings, cadmm::Error> {
+    Ok(Settings {
+        tolerance: tol,
         max_iterations: a.max_iter,
         time_limit: a.time_limit,
         variant: VariantChoice::from_name(&a.variant)?,
         anderson: a.anderson,
-        // The trace gives the time to reach every tolerance from one run. Its cost (the
-        // error measure at every iteration instead of every 5th) is included in the times.
-        trace: true,
+        newton_polish: a.newton,
+        trace,
         ..Settings::default()
-    };
-    let problem = fclib::read(&a.file)?;
-    let mut solver = Solver::new(problem, settings)?;
-    let status = solver.solve()?;
-    fclib::write_solution(&a.out, &solver.solution())?;
-    let st = solver.stats();
+    })
+}
+
+fn work(a: &WorkerArgs) -> Result<String, cadmm::Error> {
+    let problem: Problem = fclib::read(&a.file)?;
+    let tmin = a.tols.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut runs = String::new();
+    for (k, &tol) in a.tols.iter().enumerate() {
+        let mut solver = Solver::new(problem.clone(), settings(a, tol, false)?)?;
+        let status = solver.solve()?;
+        if tol == tmin {
+            fclib::write_solution(&a.out, &solver.solution())?;
+        }
+        let st = solver.stats();
+        let sep = if k == 0 { "" } else { ", " };
+        let _ = write!(
+            runs,
+            "{sep}{{\"tol\": {}, \"status\": \"{}\", \"iterations\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}}}",
+            json_number(tol),
+            status.name(),
+            st.iterations,
+            json_number(st.setup_seconds),
+            json_number(st.solve_seconds),
+        );
+    }
+    let mut solver = Solver::new(problem, settings(a, tmin, true)?)?;
+    solver.solve()?;
     let mut trace = String::with_capacity(40 * solver.trace().len());
     for (k, p) in solver.trace().iter().enumerate() {
         let sep = if k == 0 { "" } else { "," };
@@ -64,13 +92,7 @@ fn work(a: &WorkerArgs) -> Result<String, cadmm::Error> {
             json_number(p.error)
         );
     }
-    Ok(format!(
-        "{{\"status\": \"{}\", \"iterations\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"trace\": [{trace}]}}",
-        status.name(),
-        st.iterations,
-        json_number(st.setup_seconds),
-        json_number(st.solve_seconds),
-    ))
+    Ok(format!("{{\"runs\": [{runs}], \"trace\": [{trace}]}}"))
 }
 
 /// Runs the worker: exit code 0 with the JSON line, 2 with a message on stderr.

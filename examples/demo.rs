@@ -433,7 +433,7 @@ fn summary(
     };
     check(
         solved == logs.len() && max_check <= 2.0 * TOLERANCE,
-        format!("solver: every step solved, independent error {max_check:.1e} <= 2 x tolerance"),
+        format!("solver: every step solved, error re-measured on a copy of the problem {max_check:.1e} <= 2 x tolerance"),
     );
     let finite = bodies.iter().all(|b| {
         b.pos

@@ -197,6 +197,28 @@ fn numeric_update_with_the_same_pattern() {
     assert!(common::error(&q, &s.r, &s.v, &s.lambda) <= TOL);
 }
 
+/// `../shared/tools/fc_error.py PROBLEM SOLUTION` (the Python error checker; .ci/run
+/// installs numpy, scipy and h5py).
+fn fc_error(problem: &std::path::Path, solution: &std::path::Path) -> f64 {
+    let script =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/tools/fc_error.py");
+    let out = std::process::Command::new("python3")
+        .arg(&script)
+        .arg(problem)
+        .arg(solution)
+        .output()
+        .expect("python3 runs fc_error.py");
+    assert!(
+        out.status.success(),
+        "fc_error.py: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .trim()
+        .parse()
+        .expect("fc_error.py prints a number")
+}
+
 #[test]
 fn fclib_round_trip_keeps_the_problem() {
     let dir = std::env::temp_dir().join(format!("cadmm-roundtrip-{}", std::process::id()));
@@ -210,6 +232,18 @@ fn fclib_round_trip_keeps_the_problem() {
         let path = dir.join("p.hdf5");
         fclib::write_problem(&path, &p).unwrap();
         assert_eq!(fclib::read(&path).unwrap(), p, "{rel}");
+        // Read back by another reader too: fc_error.py (h5py) measures the solution on the
+        // written file and on the original alike.
+        let mut solver = Solver::new(p.clone(), Settings::default()).unwrap();
+        assert_eq!(solver.solve().unwrap(), Status::Solved, "{rel}");
+        let sol = dir.join("s.hdf5");
+        fclib::write_solution(&sol, &solver.solution()).unwrap();
+        let (written, original) = (fc_error(&path, &sol), fc_error(&common::data(rel), &sol));
+        assert!(
+            (written - original).abs() <= 1e-12 + 1e-9 * original,
+            "{rel}: fc_error.py {written} on the written file, {original} on the original"
+        );
+        assert!(written <= TOL, "{rel}: {written}");
     }
     let e = fclib::read(dir.join("missing.hdf5")).unwrap_err();
     assert!(matches!(e, cadmm::Error::Io(_)), "{e}");

@@ -20,11 +20,11 @@ use std::process::ExitCode;
 /// Flags of `cadmm bench`.
 #[derive(Args)]
 pub struct BenchArgs {
-    /// Comma-separated solvers: cadmm:auto, cadmm:<variant>[+aa<M>] (e.g. cadmm:cp-N+aa5),
+    /// Comma-separated solvers: cadmm:auto, cadmm:newton, cadmm:<variant>[+aa<M>][+newton|+nonewton] (e.g. cadmm:cp-N+aa5, cadmm:auto+nonewton),
     /// siconos:<ADMM|NSGS|NSGS_WR|IPM|NSN_AC|PROX>.
     #[arg(long, value_delimiter = ',', required = true)]
     solvers: Vec<String>,
-    /// Comma-separated tolerances on the error measure; every run stops at the smallest.
+    /// Comma-separated tolerances on the error measure; a cadmm configuration runs once per tolerance.
     #[arg(long, value_delimiter = ',', default_value = "1e-4,1e-6,1e-8")]
     tol: Vec<f64>,
     /// Time limit of one solve, seconds.

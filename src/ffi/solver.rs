@@ -11,7 +11,7 @@ use super::settings::{cadmm_settings, settings_ref};
 use super::stats::{cadmm_stats, cadmm_trace_point, write_stats, STATS_MIN_SIZE};
 use crate::problem::Problem;
 use crate::solver::Solver;
-use crate::stats::Phase;
+use crate::stats::{Phase, TracePoint};
 use std::cell::RefCell;
 use std::ffi::{c_char, CString};
 
@@ -374,19 +374,24 @@ pub unsafe extern "C" fn cadmm_solver_get_trace(
 ) -> cadmm_result {
     let body = |sv: &cadmm_solver| -> FfiResult {
         check_ptr("out", out.cast_const())?;
-        let trace = sv.solver.trace();
-        let point = trace.get(i).ok_or_else(|| {
-            Failure::new(
-                CADMM_ERR_INVALID_VALUE,
-                format!("trace index {i} is out of range (length {})", trace.len()),
-            )
-        })?;
+        let point = trace_point(sv, i)?;
         // SAFETY: checked non-NULL and aligned.
         out.write(cadmm_trace_point::from(point));
         Ok(())
     };
     // SAFETY: the caller's contract, forwarded.
     unsafe { with_solver(sv, body) }
+}
+
+/// Trace point `i` of the last solve, or a failure naming the index and the length.
+fn trace_point(sv: &cadmm_solver, i: usize) -> FfiResult<&TracePoint> {
+    let trace = sv.solver.trace();
+    trace.get(i).ok_or_else(|| {
+        Failure::new(
+            CADMM_ERR_INVALID_VALUE,
+            format!("trace index {i} is out of range (length {})", trace.len()),
+        )
+    })
 }
 
 /// The phase of trace point `i` (`0 <= i < cadmm_solver_trace_len`): 0 for an ADMM
@@ -400,13 +405,7 @@ pub unsafe extern "C" fn cadmm_solver_get_trace_phase(
 ) -> cadmm_result {
     let body = |sv: &cadmm_solver| -> FfiResult {
         check_ptr("phase", phase.cast_const())?;
-        let trace = sv.solver.trace();
-        let point = trace.get(i).ok_or_else(|| {
-            Failure::new(
-                CADMM_ERR_INVALID_VALUE,
-                format!("trace index {i} is out of range (length {})", trace.len()),
-            )
-        })?;
+        let point = trace_point(sv, i)?;
         let code = match point.phase {
             Phase::Admm => 0,
             Phase::Newton => 1,

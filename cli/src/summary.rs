@@ -115,9 +115,9 @@ pub fn markdown(b: &Bench) -> String {
     let _ = writeln!(
         s,
         "\nTimes are wall seconds of the solve, the median over repeats; reading the file is \
-         not counted. cadmm: setup (factorization) plus the ADMM iterations, with the error \
-         measure evaluated at every iteration for the trace; its time to a tolerance is read \
-         from that trace. Siconos: the driver call (its own setup included) in a child \
+         not counted. cadmm: setup (factorization) plus the solve, as a user runs it (no \
+         trace), one new solver per tolerance; a separate traced run only draws the \
+         work-precision curve. Siconos: the driver call (its own setup included) in a child \
          process; it has no trace, so its time to a tolerance is the time of a whole run {} \
          when its final error is at most that tolerance. Every error is re-measured with \
          cadmm's `problem_error` (docs/algorithms.md §3) on the solution the solver \

@@ -53,6 +53,9 @@ pub struct Handover {
     pub error_below: f64,
     /// Hand over when the error has not halved over this many evaluations (0: never).
     pub stall_checks: usize,
+    /// ... but not below `error_below` while the current rate would reach the tolerance
+    /// within this many iterations.
+    pub finish_within: usize,
 }
 
 /// The iterate the loop works on; the caller initializes it (warm start) and reads it back.
@@ -144,6 +147,7 @@ pub fn run(
     let stall_checks = set.handover.map_or(0, |h| h.stall_checks);
     let mut recent = vec![f64::INFINITY; stall_checks];
     let mut checks = 0usize;
+    let mut last_check_error = f64::INFINITY;
     let mut inner_tol = if set.s_update == SUpdate::External {
         1e-3f64.max(set.tolerance)
     } else {
@@ -234,7 +238,14 @@ pub fn run(
                     checks += 1;
                     checks > stall_checks && out.error > 0.5 * oldest
                 };
-                if out.error <= h.error_below || stalled {
+                // ADMM about to finish on its own (at the rate of the last evaluations) is
+                // cheaper than a Newton phase: no handover then.
+                let rate = out.error / last_check_error;
+                let finishing = rate < 1.0
+                    && (set.tolerance / out.error).ln() / rate.ln() * set.check_every as f64
+                        <= h.finish_within as f64;
+                last_check_error = out.error;
+                if (out.error <= h.error_below && !finishing) || stalled {
                     out.handed_over = true;
                     break;
                 }

@@ -25,12 +25,12 @@
 
 use super::sparse::{Pattern, SparseLu};
 use super::{
-    ac_branch, eval_all, rho_from_block, Branch, FailReason, Mat3, MeritWindow, NewtonOutcome,
-    NewtonStatus, Regularization, TUNING,
+    ac_branch, check_rho, eval_all, iterate, rho_from_block, Branch, Mat3, NewtonOutcome,
+    NewtonSystem, TUNING,
 };
 use crate::csc::CscMatrix;
 use crate::error::Error;
-use crate::measure::global_error;
+use crate::measure::{global_error_with, MeasureWork};
 use crate::problem::GlobalProblem;
 use std::time::Instant;
 
@@ -75,6 +75,7 @@ pub struct GlobalNewton {
     best: Vec<f64>,
     /// The current point `(v, lambda, r)`, taken out of `self` during a solve.
     z: Vec<f64>,
+    measure: MeasureWork,
 }
 
 fn pattern_of(a: &CscMatrix) -> (Vec<usize>, Vec<usize>) {
@@ -196,6 +197,7 @@ impl GlobalNewton {
             b_trial: z3,
             best: vec![0.0; nz],
             z: vec![0.0; nz],
+            measure: MeasureWork::default(),
         })
     }
 
@@ -206,20 +208,7 @@ impl GlobalNewton {
 
     /// Replaces the per-contact `rho` (positive, one per contact).
     pub fn set_rho(&mut self, rho: &[f64]) -> Result<(), Error> {
-        if rho.len() != self.nc {
-            return Err(Error::Dimension {
-                field: "rho",
-                expected: self.nc,
-                found: rho.len(),
-            });
-        }
-        if let Some(index) = rho.iter().position(|&x| !(x > 0.0 && x.is_finite())) {
-            return Err(Error::InvalidValue {
-                field: "rho",
-                index,
-                reason: "must be positive and finite",
-            });
-        }
+        check_rho(rho, self.nc)?;
         self.rho.copy_from_slice(rho);
         Ok(())
     }
@@ -283,87 +272,35 @@ impl GlobalNewton {
     ) -> Result<NewtonOutcome, Error> {
         self.check(prob, v, r, lambda)?;
         let (n, p) = (self.n, self.p);
-        let factorizations0 = self.lu.factorizations();
         let mut z = std::mem::take(&mut self.z);
         z[..n].copy_from_slice(v);
         z[n..n + p].copy_from_slice(lambda);
         z[n + p..].copy_from_slice(r);
-        let mut merit = self.evaluate_at(prob, &z);
-        let mut err = self.error(prob, &z);
-        self.best.copy_from_slice(&z);
-        let mut best_err = err;
-        let mut reg = Regularization::new();
-        let mut window = MeritWindow::new(merit);
-        let (mut iterations, mut last_improvement) = (0, 0);
-        let status = loop {
-            if best_err <= tol {
-                break NewtonStatus::Converged;
-            }
-            if !merit.is_finite() {
-                break NewtonStatus::Failed(FailReason::NonFinite);
-            }
-            if iterations >= max_iter {
-                break NewtonStatus::Failed(FailReason::MaxIterations);
-            }
-            if deadline.is_some_and(|d| Instant::now() >= d) {
-                break NewtonStatus::Failed(FailReason::Deadline);
-            }
-            if iterations - last_improvement >= TUNING.stall {
-                break NewtonStatus::Failed(FailReason::NoProgress);
-            }
-            let step = loop {
-                let alpha = reg.alpha(err);
-                let outcome = if self.direction(prob, alpha) {
-                    self.line_search(prob, &z, window.reference())
-                        .ok_or(FailReason::LineSearch)
-                } else {
-                    Err(FailReason::Singular)
-                };
-                match outcome {
-                    Ok(t) => break Ok(t),
-                    Err(why) if !reg.strengthen(err) => break Err(why),
-                    Err(_) => {}
-                }
-            };
-            let t = match step {
-                Ok(t) => t,
-                Err(why) => break NewtonStatus::Failed(why),
-            };
-            if t == 1.0 {
-                reg.relax();
-            }
-            iterations += 1;
-            // Accept; re-evaluate exactly (the trial residuals were updated linearly).
-            z.copy_from_slice(&self.z_trial);
-            merit = self.evaluate_at(prob, &z);
-            window.push(merit);
-            err = self.error(prob, &z);
-            if err < best_err {
-                best_err = err;
-                last_improvement = iterations;
-                self.best.copy_from_slice(&z);
-            }
-        };
-        z.copy_from_slice(&self.best);
-        let mut error = best_err;
-        if status == NewtonStatus::Converged {
-            error = self.snap_open(prob, &mut z, error, tol);
-        }
+        let mut best = std::mem::take(&mut self.best);
+        let out = iterate(self, prob, &mut z, &mut best, tol, max_iter, deadline);
+        self.best = best;
         v.copy_from_slice(&z[..n]);
         lambda.copy_from_slice(&z[n..n + p]);
         r.copy_from_slice(&z[n + p..]);
         self.z = z;
-        Ok(NewtonOutcome {
-            status,
-            iterations,
-            factorizations: self.lu.factorizations() - factorizations0,
-            error,
-        })
+        Ok(out)
+    }
+}
+
+impl NewtonSystem for GlobalNewton {
+    type Problem = GlobalProblem;
+
+    fn error(&mut self, prob: &GlobalProblem, z: &[f64]) -> f64 {
+        let (n, p) = (self.n, self.p);
+        global_error_with(prob, &z[n + p..], &z[..n], &z[n..n + p], &mut self.measure)
     }
 
-    fn error(&self, prob: &GlobalProblem, z: &[f64]) -> f64 {
-        let (n, p) = (self.n, self.p);
-        global_error(prob, &z[n + p..], &z[..n], &z[n..n + p])
+    fn trial(&self) -> &[f64] {
+        &self.z_trial
+    }
+
+    fn factorizations(&self) -> usize {
+        self.lu.factorizations()
     }
 
     /// Residuals, F, A, B at `z`; returns the merit `0.5 ||R||^2`.
@@ -521,7 +458,9 @@ impl GlobalNewton {
         if !changed {
             return error;
         }
-        let snapped = self.error(prob, &self.z_trial);
+        let trial = std::mem::take(&mut self.z_trial);
+        let snapped = self.error(prob, &trial);
+        self.z_trial = trial;
         if snapped <= error.max(tol) {
             z.copy_from_slice(&self.z_trial);
             snapped
@@ -556,6 +495,7 @@ fn weighted_dot(a: &CscMatrix, c1: usize, c2: usize, w: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::measure::global_error;
     use crate::newton::testing::{box_problem, duplicated, perturb, point_mass_problem, DT, G};
 
     struct Run {

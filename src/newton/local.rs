@@ -26,12 +26,11 @@
 
 use super::sparse::{Pattern, SparseLu};
 use super::{
-    eval_all, rho_from_block, FailReason, Mat3, MeritWindow, NewtonOutcome, NewtonStatus,
-    Regularization, TUNING,
+    check_rho, eval_all, iterate, rho_from_block, Mat3, NewtonOutcome, NewtonSystem, TUNING,
 };
 use crate::csc::CscMatrix;
 use crate::error::Error;
-use crate::measure::local_error;
+use crate::measure::{local_error_with, MeasureWork};
 use crate::problem::LocalProblem;
 use std::time::Instant;
 
@@ -59,6 +58,7 @@ pub struct LocalNewton {
     a_trial: Vec<Mat3>,
     b_trial: Vec<Mat3>,
     best: Vec<f64>,
+    measure: MeasureWork,
 }
 
 impl LocalNewton {
@@ -117,6 +117,7 @@ impl LocalNewton {
             a_trial: z3.clone(),
             b_trial: z3,
             best: vec![0.0; m],
+            measure: MeasureWork::default(),
         })
     }
 
@@ -127,20 +128,7 @@ impl LocalNewton {
 
     /// Replaces the per-contact `rho` (positive, one per contact).
     pub fn set_rho(&mut self, rho: &[f64]) -> Result<(), Error> {
-        if rho.len() != self.nc {
-            return Err(Error::Dimension {
-                field: "rho",
-                expected: self.nc,
-                found: rho.len(),
-            });
-        }
-        if let Some(index) = rho.iter().position(|&x| !(x > 0.0 && x.is_finite())) {
-            return Err(Error::InvalidValue {
-                field: "rho",
-                index,
-                reason: "must be positive and finite",
-            });
-        }
+        check_rho(rho, self.nc)?;
         self.rho.copy_from_slice(rho);
         Ok(())
     }
@@ -175,76 +163,26 @@ impl LocalNewton {
                 found: r.len(),
             });
         }
-        let factorizations0 = self.lu.factorizations();
-        let mut merit = self.evaluate_at(p, r);
-        let mut err = local_error(p, r);
-        self.best.copy_from_slice(r);
-        let mut best_err = err;
-        let mut reg = Regularization::new();
-        let mut window = MeritWindow::new(merit);
-        let (mut iterations, mut last_improvement) = (0, 0);
-        let status = loop {
-            if best_err <= tol {
-                break NewtonStatus::Converged;
-            }
-            if !merit.is_finite() {
-                break NewtonStatus::Failed(FailReason::NonFinite);
-            }
-            if iterations >= max_iter {
-                break NewtonStatus::Failed(FailReason::MaxIterations);
-            }
-            if deadline.is_some_and(|d| Instant::now() >= d) {
-                break NewtonStatus::Failed(FailReason::Deadline);
-            }
-            if iterations - last_improvement >= TUNING.stall {
-                break NewtonStatus::Failed(FailReason::NoProgress);
-            }
-            // One step: retry with a stronger regularization until the line search passes.
-            let step = loop {
-                let alpha = reg.alpha(err);
-                let outcome = if self.direction(p, alpha) {
-                    self.line_search(p, r, window.reference())
-                        .ok_or(FailReason::LineSearch)
-                } else {
-                    Err(FailReason::Singular)
-                };
-                match outcome {
-                    Ok(s) => break Ok(s),
-                    Err(why) if !reg.strengthen(err) => break Err(why),
-                    Err(_) => {}
-                }
-            };
-            let t = match step {
-                Ok(t) => t,
-                Err(why) => break NewtonStatus::Failed(why),
-            };
-            if t == 1.0 {
-                reg.relax();
-            }
-            iterations += 1;
-            // Accept the trial point; re-evaluate with u = W r + q exactly (the trial used
-            // u + t W d, which drifts by round-off).
-            r.copy_from_slice(&self.r_trial);
-            merit = self.evaluate_at(p, r);
-            window.push(merit);
-            err = local_error(p, r);
-            if err < best_err {
-                best_err = err;
-                last_improvement = iterations;
-                self.best.copy_from_slice(r);
-            }
-        };
-        r.copy_from_slice(&self.best);
-        let mut error = best_err;
-        if status == NewtonStatus::Converged {
-            error = self.snap_open(p, r, error, tol);
-        }
-        Ok(NewtonOutcome {
-            status,
-            iterations,
-            factorizations: self.lu.factorizations() - factorizations0,
-            error,
-        })
+        let mut best = std::mem::take(&mut self.best);
+        let out = iterate(self, p, r, &mut best, tol, max_iter, deadline);
+        self.best = best;
+        Ok(out)
+    }
+}
+
+impl NewtonSystem for LocalNewton {
+    type Problem = LocalProblem;
+
+    fn error(&mut self, p: &LocalProblem, r: &[f64]) -> f64 {
+        local_error_with(p, r, &mut self.measure)
+    }
+
+    fn trial(&self) -> &[f64] {
+        &self.r_trial
+    }
+
+    fn factorizations(&self) -> usize {
+        self.lu.factorizations()
     }
 
     /// `u = W r + q` and F, A, B at `r`; returns the merit `0.5 ||F||^2`.
@@ -349,7 +287,9 @@ impl LocalNewton {
         if !changed {
             return error;
         }
-        let snapped = local_error(p, &self.r_trial);
+        let trial = std::mem::take(&mut self.r_trial);
+        let snapped = self.error(p, &trial);
+        self.r_trial = trial;
         if snapped <= error.max(tol) {
             r.copy_from_slice(&self.r_trial);
             snapped
@@ -375,9 +315,11 @@ pub(crate) fn diag_block(w: &CscMatrix, i: usize) -> Mat3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::measure::local_error;
     use crate::newton::testing::{
         box_problem, duplicated, perturb, point_mass_problem, to_local, velocity, DT, G,
     };
+    use crate::newton::{FailReason, NewtonStatus};
 
     fn solve(p: &LocalProblem, r: &mut [f64], tol: f64) -> NewtonOutcome {
         let mut s = LocalNewton::new(p).unwrap();

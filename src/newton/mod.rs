@@ -12,6 +12,9 @@ mod sparse;
 mod testing;
 
 pub use alart_curnier::{ac_branch, ac_contact, Branch, Mat3};
+
+use crate::error::Error;
+use std::time::Instant;
 // The solvers' entry points, for the solver driver that will call them.
 #[allow(unused_imports)]
 pub use global::GlobalNewton;
@@ -64,6 +67,133 @@ impl NewtonOutcome {
     /// True when the tolerance was reached.
     pub fn converged(&self) -> bool {
         self.status == NewtonStatus::Converged
+    }
+}
+
+/// What a Newton system supplies to the one iteration, [`iterate`]. The unknown is a flat
+/// vector `x`: `r` for the local form, `(v, lambda, r)` for the global form.
+pub(crate) trait NewtonSystem {
+    /// The problem the system is built for.
+    type Problem;
+    /// Evaluates F, A, B at `x`; returns the merit `0.5 ||R||^2`.
+    fn evaluate_at(&mut self, p: &Self::Problem, x: &[f64]) -> f64;
+    /// The common error measure at `x`.
+    fn error(&mut self, p: &Self::Problem, x: &[f64]) -> f64;
+    /// Assembles, factorizes and solves for the direction at the last evaluated point;
+    /// false when the matrix is singular or the direction not finite.
+    fn direction(&mut self, p: &Self::Problem, alpha: f64) -> bool;
+    /// Backtracking from `t = 1` against `reference`; the step length, with the trial point
+    /// in [`NewtonSystem::trial`].
+    fn line_search(&mut self, p: &Self::Problem, x: &[f64], reference: f64) -> Option<f64>;
+    /// The trial point of the last successful line search.
+    fn trial(&self) -> &[f64];
+    /// Sets exactly to zero the impulses of contacts the converged `x` finds open, when the
+    /// error stays within `max(error, tol)`; returns the error of `x`.
+    fn snap_open(&mut self, p: &Self::Problem, x: &mut [f64], error: f64, tol: f64) -> f64;
+    /// Numeric factorizations so far.
+    fn factorizations(&self) -> usize;
+}
+
+/// The Newton iteration both forms share: regularized steps, non-monotone line search,
+/// best iterate by the common error measure (left in `x`; `best` is work space of `x`'s
+/// length).
+pub(crate) fn iterate<S: NewtonSystem>(
+    s: &mut S,
+    p: &S::Problem,
+    x: &mut [f64],
+    best: &mut [f64],
+    tol: f64,
+    max_iter: usize,
+    deadline: Option<Instant>,
+) -> NewtonOutcome {
+    let factorizations0 = s.factorizations();
+    let mut merit = s.evaluate_at(p, x);
+    let mut err = s.error(p, x);
+    best.copy_from_slice(x);
+    let mut best_err = err;
+    let mut reg = Regularization::new();
+    let mut window = MeritWindow::new(merit);
+    let (mut iterations, mut last_improvement) = (0, 0);
+    let status = loop {
+        if best_err <= tol {
+            break NewtonStatus::Converged;
+        }
+        if !merit.is_finite() {
+            break NewtonStatus::Failed(FailReason::NonFinite);
+        }
+        if iterations >= max_iter {
+            break NewtonStatus::Failed(FailReason::MaxIterations);
+        }
+        if deadline.is_some_and(|d| Instant::now() >= d) {
+            break NewtonStatus::Failed(FailReason::Deadline);
+        }
+        if iterations - last_improvement >= TUNING.stall {
+            break NewtonStatus::Failed(FailReason::NoProgress);
+        }
+        // One step: retry with a stronger regularization until the line search passes.
+        let step = loop {
+            let alpha = reg.alpha(err);
+            let outcome = if s.direction(p, alpha) {
+                s.line_search(p, x, window.reference())
+                    .ok_or(FailReason::LineSearch)
+            } else {
+                Err(FailReason::Singular)
+            };
+            match outcome {
+                Ok(t) => break Ok(t),
+                Err(why) if !reg.strengthen(err) => break Err(why),
+                Err(_) => {}
+            }
+        };
+        let t = match step {
+            Ok(t) => t,
+            Err(why) => break NewtonStatus::Failed(why),
+        };
+        if t == 1.0 {
+            reg.relax();
+        }
+        iterations += 1;
+        // Accept the trial point; re-evaluate exactly (the trial residuals were updated
+        // linearly and drift by round-off).
+        x.copy_from_slice(s.trial());
+        merit = s.evaluate_at(p, x);
+        window.push(merit);
+        err = s.error(p, x);
+        if err < best_err {
+            best_err = err;
+            last_improvement = iterations;
+            best.copy_from_slice(x);
+        }
+    };
+    x.copy_from_slice(best);
+    let mut error = best_err;
+    if status == NewtonStatus::Converged {
+        error = s.snap_open(p, x, error, tol);
+    }
+    NewtonOutcome {
+        status,
+        iterations,
+        factorizations: s.factorizations() - factorizations0,
+        error,
+    }
+}
+
+/// Checks per-contact `rho` values (positive, finite, one per contact).
+pub(crate) fn check_rho(rho: &[f64], nc: usize) -> Result<(), Error> {
+    if rho.len() != nc {
+        return Err(Error::Dimension {
+            field: "rho",
+            expected: nc,
+            found: rho.len(),
+        });
+    }
+    match rho.iter().position(|&x| !(x > 0.0 && x.is_finite())) {
+        Some(index) => Err(Error::InvalidValue {
+            field: "rho",
+            index,
+            reason: "must be positive and finite",
+        }),
+        None => Ok(()),
     }
 }
 

@@ -54,19 +54,18 @@ pub struct MeasureWork {
 }
 
 impl MeasureWork {
-    /// Work vectors for `p` (global: `n`, `3 nc` and joint rows; local: `3 nc`).
-    pub fn new(p: &Problem) -> Self {
-        match p {
-            Problem::Global(g) => Self {
-                mv: vec![0.0; g.n()],
-                hr: vec![0.0; g.n()],
-                u: vec![0.0; g.w.len()],
-                gv: vec![0.0; g.joints.as_ref().map_or(0, |j| j.b.len())],
-            },
-            Problem::Local(l) => Self {
-                u: vec![0.0; l.q.len()],
-                ..Self::default()
-            },
+    /// Work vectors sized for a global problem (`n`, `3 nc` and the joint rows).
+    pub fn global(p: &GlobalProblem) -> Self {
+        let mut work = Self::default();
+        work.fit_global(p);
+        work
+    }
+
+    /// Work vectors sized for a local problem (`3 nc`).
+    pub fn local(p: &LocalProblem) -> Self {
+        Self {
+            u: vec![0.0; p.q.len()],
+            ..Self::default()
         }
     }
 

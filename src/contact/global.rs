@@ -56,7 +56,7 @@ impl GlobalSplitting {
         let mut phi = vec![0.0; m];
         initial_shift(&p.mu, p.h.norm_fro(), &mut phi);
         let c = p.w.iter().zip(&phi).map(|(w, s)| -w - s).collect();
-        let measure = MeasureWork::new(&Problem::Global(p.clone()));
+        let measure = MeasureWork::global(&p);
         Ok(Self {
             mass,
             factor,

@@ -46,7 +46,7 @@ impl LocalSplitting {
             phi,
             zero: vec![0.0; m],
             u: vec![0.0; m],
-            measure: MeasureWork::new(&Problem::Local(p.clone())),
+            measure: MeasureWork::local(&p),
             newton: None,
             p,
         })

@@ -197,7 +197,7 @@ impl GlobalNewton {
             b_trial: z3,
             best: vec![0.0; nz],
             z: vec![0.0; nz],
-            measure: MeasureWork::default(),
+            measure: MeasureWork::global(prob),
         })
     }
 

@@ -117,7 +117,7 @@ impl LocalNewton {
             a_trial: z3.clone(),
             b_trial: z3,
             best: vec![0.0; m],
-            measure: MeasureWork::default(),
+            measure: MeasureWork::local(p),
         })
     }
 

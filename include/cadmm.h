@@ -524,6 +524,42 @@ cadmm_result cadmm_solver_new(const struct cadmm_problem *p,
                               struct cadmm_solver **out);
 
 /**
+ * The per-step path of a global problem: new values for the next time step of the same
+ * scene (same sizes and sparsity patterns), without building a problem. Each array may be
+ * NULL to keep the current values; matrix values are given in the order of the arrays
+ * passed to `cadmm_problem_new_global` / `cadmm_problem_set_joints` (`nnz` entries each),
+ * `f` has `n` entries, `w` `3 n_contacts`, `b` one per joint row, `mu` `n_contacts`.
+ * The values are scattered into the kept system matrix and refactorized once, without
+ * sorting or allocating; M is not factorized on its own (a non-positive-definite M makes
+ * the system's factorization fail). The next solve starts cold unless
+ * `cadmm_solver_warm_start` is called after this.
+ *
+ * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a non-finite value, a
+ * negative friction coefficient), `CADMM_ERR_UNSUPPORTED` (a local solver, or G/b for a
+ * problem without joints), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a
+ * failure the solver refuses to solve, as after a failed `cadmm_solver_update`.
+ */
+cadmm_result cadmm_solver_update_values(struct cadmm_solver *sv,
+                                        const double *M_values,
+                                        const double *H_values,
+                                        const double *G_values,
+                                        const double *f,
+                                        const double *w,
+                                        const double *b,
+                                        const double *mu);
+
+/**
+ * The per-step path of a local problem: new values of `W` (its `nnz` entries, in the order
+ * of the arrays passed to `cadmm_problem_new_local`), `q` (`3 n_contacts`) and `mu`
+ * (`n_contacts`), each NULL to keep the current values; same pattern, same behaviour and
+ * errors as `cadmm_solver_update_values` (`CADMM_ERR_UNSUPPORTED` for a global solver).
+ */
+cadmm_result cadmm_solver_update_local_values(struct cadmm_solver *sv,
+                                              const double *W_values,
+                                              const double *q,
+                                              const double *mu);
+
+/**
  * Replaces the solver's problem by `p`, the next time step of the same scene: same form,
  * sizes and sparsity patterns, new values (numeric refactorization only). `p` is copied.
  * The next solve starts cold unless `cadmm_solver_warm_start` is called after this.

@@ -12,7 +12,13 @@ pub struct CscMatrix {
     colptr: Vec<usize>,
     rowind: Vec<usize>,
     values: Vec<f64>,
+    /// Where each stored entry came from in the arrays the matrix was built from, when
+    /// construction had to sort rows (None: stored in input order).
+    input_order: Option<Vec<usize>>,
 }
+
+/// Marks an entry without a mirror in [`CscMatrix::mirror_map`].
+const NO_MIRROR: usize = usize::MAX;
 
 impl CscMatrix {
     /// Builds and validates a matrix. `field` names it in errors (`"M"`, `"H"`...).
@@ -54,7 +60,8 @@ impl CscMatrix {
         }
         let mut rowind = rowind;
         let mut values = values;
-        let mut order: Vec<(usize, f64)> = Vec::new();
+        let mut input_order: Option<Vec<usize>> = None;
+        let mut order: Vec<(usize, f64, usize)> = Vec::new();
         for j in 0..ncols {
             let (start, end) = (colptr[j], colptr[j + 1]);
             order.clear();
@@ -72,9 +79,15 @@ impl CscMatrix {
                         reason: "not finite",
                     });
                 }
-                order.push((rowind[k], values[k]));
+                order.push((rowind[k], values[k], k));
             }
             order.sort_by_key(|e| e.0);
+            if order.iter().enumerate().any(|(k, e)| e.2 != start + k) {
+                let perm = input_order.get_or_insert_with(|| (0..nnz).collect());
+                for (k, e) in order.iter().enumerate() {
+                    perm[start + k] = e.2;
+                }
+            }
             for (k, w) in order.windows(2).enumerate() {
                 if w[0].0 == w[1].0 {
                     return Err(bad(format!(
@@ -84,7 +97,7 @@ impl CscMatrix {
                     )));
                 }
             }
-            for (k, (i, v)) in order.iter().enumerate() {
+            for (k, (i, v, _)) in order.iter().enumerate() {
                 rowind[start + k] = *i;
                 values[start + k] = *v;
             }
@@ -95,7 +108,73 @@ impl CscMatrix {
             colptr,
             rowind,
             values,
+            input_order,
         })
+    }
+
+    /// Replaces the values, given in the order of the arrays the matrix was built from (the
+    /// pattern stays). Checks the length and that every value is finite; on error the
+    /// matrix is unchanged. Does not allocate.
+    pub fn set_values(&mut self, field: &'static str, values: &[f64]) -> Result<(), Error> {
+        self.check_values(field, values)?;
+        match &self.input_order {
+            None => self.values.copy_from_slice(values),
+            Some(perm) => {
+                for (v, &k) in self.values.iter_mut().zip(perm) {
+                    *v = values[k];
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The checks of [`CscMatrix::set_values`] alone.
+    pub fn check_values(&self, field: &'static str, values: &[f64]) -> Result<(), Error> {
+        if values.len() != self.values.len() {
+            return Err(Error::Dimension {
+                field,
+                expected: self.values.len(),
+                found: values.len(),
+            });
+        }
+        if let Some(index) = values.iter().position(|v| !v.is_finite()) {
+            return Err(Error::InvalidValue {
+                field,
+                index,
+                reason: "not finite",
+            });
+        }
+        Ok(())
+    }
+
+    /// For each stored entry `(i, j)`, the position of `(j, i)` (pattern only), so that
+    /// [`CscMatrix::is_symmetric_with`] checks new values without allocating. Square
+    /// matrices only.
+    pub fn mirror_map(&self) -> Vec<usize> {
+        let mut mirror = vec![NO_MIRROR; self.nnz()];
+        for j in 0..self.ncols {
+            for k in self.colptr[j]..self.colptr[j + 1] {
+                let i = self.rowind[k];
+                let (s, e) = (self.colptr[i], self.colptr[i + 1]);
+                if let Ok(t) = self.rowind[s..e].binary_search(&j) {
+                    mirror[k] = s + t;
+                }
+            }
+        }
+        mirror
+    }
+
+    /// [`CscMatrix::is_symmetric`] with a map from [`CscMatrix::mirror_map`] of this
+    /// pattern, without allocating.
+    pub fn is_symmetric_with(&self, mirror: &[usize]) -> bool {
+        let scale = self.values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let asymmetry = self
+            .values
+            .iter()
+            .zip(mirror)
+            .map(|(&v, &t)| (v - if t == NO_MIRROR { 0.0 } else { self.values[t] }).abs())
+            .fold(0.0f64, f64::max);
+        asymmetry <= SYMMETRY_TOL * scale
     }
 
     /// Builds a matrix from (row, column, value) triplets; duplicates are summed.
@@ -169,6 +248,7 @@ impl CscMatrix {
             colptr: (0..=n).collect(),
             rowind: (0..n).collect(),
             values: vec![1.0; n],
+            input_order: None,
         }
     }
 
@@ -265,6 +345,7 @@ impl CscMatrix {
             colptr,
             rowind,
             values,
+            input_order: None,
         }
     }
 

@@ -47,7 +47,7 @@ pub use cone::{de_saxce, project_cone, project_dual_cone};
 pub use contact::InitialRho;
 pub use csc::CscMatrix;
 pub use error::{Error, Status};
-pub use problem::{GlobalProblem, Joints, LocalProblem, Problem};
+pub use problem::{GlobalProblem, Joints, LocalProblem, NewValues, Problem};
 pub use settings::{NewtonUse, Resolved, Settings, VariantChoice};
 pub use solver::{Solution, Solver};
 pub use stats::{Phase, Stats, TracePoint};

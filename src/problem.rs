@@ -52,7 +52,7 @@ pub enum Problem {
     Local(LocalProblem),
 }
 
-fn check_len(field: &'static str, v: &[f64], expected: usize) -> Result<(), Error> {
+pub(crate) fn check_len(field: &'static str, v: &[f64], expected: usize) -> Result<(), Error> {
     if v.len() != expected {
         return Err(Error::Dimension {
             field,
@@ -74,7 +74,7 @@ fn check_finite(field: &'static str, v: &[f64]) -> Result<(), Error> {
     }
 }
 
-fn check_mu(mu: &[f64], nc: usize) -> Result<(), Error> {
+pub(crate) fn check_mu(mu: &[f64], nc: usize) -> Result<(), Error> {
     check_len("mu", mu, nc)?;
     match mu.iter().position(|&x| x < 0.0) {
         Some(index) => Err(Error::InvalidValue {
@@ -200,24 +200,53 @@ impl Problem {
     /// True when the two problems have the same sizes and sparsity patterns, so a solver
     /// built for one can be updated to the other with a numeric refactorization only.
     pub fn same_pattern(&self, other: &Problem) -> bool {
-        let pat = |a: &CscMatrix, b: &CscMatrix| {
-            a.nrows() == b.nrows()
-                && a.ncols() == b.ncols()
-                && a.colptr() == b.colptr()
-                && a.rowind() == b.rowind()
-        };
         match (self, other) {
-            (Problem::Global(a), Problem::Global(b)) => {
-                pat(&a.m, &b.m)
-                    && pat(&a.h, &b.h)
-                    && match (&a.joints, &b.joints) {
-                        (None, None) => true,
-                        (Some(x), Some(y)) => pat(&x.g, &y.g),
-                        _ => false,
-                    }
-            }
-            (Problem::Local(a), Problem::Local(b)) => pat(&a.w, &b.w),
+            (Problem::Global(a), Problem::Global(b)) => Self::same_global_pattern(a, b),
+            (Problem::Local(a), Problem::Local(b)) => same_matrix_pattern(&a.w, &b.w),
             _ => false,
         }
     }
+
+    pub(crate) fn same_global_pattern(a: &GlobalProblem, b: &GlobalProblem) -> bool {
+        same_matrix_pattern(&a.m, &b.m)
+            && same_matrix_pattern(&a.h, &b.h)
+            && match (&a.joints, &b.joints) {
+                (None, None) => true,
+                (Some(x), Some(y)) => same_matrix_pattern(&x.g, &y.g),
+                _ => false,
+            }
+    }
+}
+
+pub(crate) fn same_matrix_pattern(a: &CscMatrix, b: &CscMatrix) -> bool {
+    a.nrows() == b.nrows()
+        && a.ncols() == b.ncols()
+        && a.colptr() == b.colptr()
+        && a.rowind() == b.rowind()
+}
+
+/// New values for the problem a solver holds: the next time step of a scene whose sizes
+/// and sparsity patterns did not change ([`crate::Solver::update_values`]). `None` keeps
+/// the current values. Matrix values come in the order of the arrays the matrix was built
+/// from. Fields of the other form must be `None`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NewValues<'a> {
+    /// Global form: values of `M`.
+    pub m: Option<&'a [f64]>,
+    /// Global form: values of `H`.
+    pub h: Option<&'a [f64]>,
+    /// Global form with joints: values of `G`.
+    pub g: Option<&'a [f64]>,
+    /// Global form: `f`.
+    pub f: Option<&'a [f64]>,
+    /// Global form: `w`.
+    pub w: Option<&'a [f64]>,
+    /// Global form with joints: `b`.
+    pub b: Option<&'a [f64]>,
+    /// Both forms: friction coefficients.
+    pub mu: Option<&'a [f64]>,
+    /// Local form: values of the Delassus matrix `W`.
+    pub delassus: Option<&'a [f64]>,
+    /// Local form: `q`.
+    pub q: Option<&'a [f64]>,
 }

@@ -5,7 +5,7 @@ use crate::admm::{self, EngineState};
 use crate::contact::{contact_form, initial_rho, ContactForm};
 use crate::error::{Error, Status};
 use crate::newton::{FailReason, NewtonStatus};
-use crate::problem::Problem;
+use crate::problem::{NewValues, Problem};
 use crate::settings::{NewtonUse, Resolved, Settings, NEWTON_MAX_STEPS};
 use crate::stats::{Phase, Stats, TracePoint};
 use std::time::{Duration, Instant};
@@ -81,9 +81,25 @@ impl Solver {
     }
 
     /// Replaces the problem by one of the same form, sizes and sparsity patterns (the next
-    /// time step of a simulation): numeric refactorization only.
+    /// time step of a simulation): numeric refactorization only, through the same path as
+    /// [`Solver::update_values`].
     pub fn update(&mut self, problem: Problem) -> Result<(), Error> {
         self.form.update(problem)?;
+        self.form.set_rho(self.rho0)?;
+        self.warm = false;
+        Ok(())
+    }
+
+    /// Takes new values for the problem on the same sizes and sparsity patterns (the next
+    /// time step of a scene), without building a problem: they are scattered into the kept
+    /// system matrix through maps built once, then one numeric refactorization; no sorting,
+    /// no allocation (except when a symmetric matrix stops being symmetric, which rebuilds
+    /// the system for LU). Every value is checked before any is taken. M is not factorized
+    /// on its own: the system's factorization fails on an M that is not positive definite,
+    /// and then the solver keeps failing until an update succeeds. The next solve starts
+    /// cold unless [`Solver::warm_start`] is called after this.
+    pub fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
+        self.form.update_values(values)?;
         self.form.set_rho(self.rho0)?;
         self.warm = false;
         Ok(())

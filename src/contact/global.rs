@@ -4,12 +4,12 @@
 //! quasi-definite system `[[M + rho H H^T, G], [G^T, -delta I]] [v; -lambda] = [.; -b]`
 //! (delta tiny, corrected by one step of iterative refinement).
 
-use super::{check_vector, de_saxce_shift, initial_shift, ContactForm};
+use super::{check_mu, check_vector, de_saxce_shift, initial_shift, ContactForm, NewValues};
 use crate::admm::{EngineState, Splitting};
 use crate::cone::{get3, project_dual_cone, set3};
-use crate::csc::norm2;
+use crate::csc::{norm2, CscMatrix};
 use crate::error::Error;
-use crate::linsys::param_matrix::{gram_triplets, triplets};
+use crate::linsys::param_matrix::{gram_triplets, triplets, Assembly};
 use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
 use crate::measure::{global_error_with, MeasureWork};
 use crate::newton::{GlobalNewton, NewtonOutcome};
@@ -23,8 +23,12 @@ const JOINT_DELTA: f64 = 1e-9;
 /// The global contact problem as an ADMM splitting.
 pub struct GlobalSplitting {
     p: GlobalProblem,
-    mass: SparseFactor,
     factor: SparseFactor,
+    /// Where M, G and `H H^T` go in the system matrix (new values without re-sorting).
+    assembly: Assembly,
+    /// Mirror map of M when the system stores its upper triangle only (new values are
+    /// checked to be still symmetric).
+    m_mirror: Option<Vec<usize>>,
     /// Current velocity (and joint multipliers after it, when there are joints).
     sol: Vec<f64>,
     rhs: Vec<f64>,
@@ -37,7 +41,7 @@ pub struct GlobalSplitting {
     r: Vec<f64>,
     lambda: Vec<f64>,
     measure: MeasureWork,
-    /// The Newton phase, built on first use (and again after an update).
+    /// The Newton phase, built on first use and kept across updates.
     newton: Option<GlobalNewton>,
 }
 
@@ -48,18 +52,19 @@ impl GlobalSplitting {
         let n = p.n();
         let m = 3 * p.n_contacts();
         // M alone first: a clear error when M is not positive definite.
-        let mut mass = SparseFactor::new("M", mass_matrix(&p), FactorKind::Cholesky)?;
-        mass.set_rho(0.0)?;
-        let (matrix, kind) = system_matrix(&p);
+        check_mass_matrix(&p)?;
+        let (matrix, assembly, kind) = system_matrix(&p);
         let dim = matrix.n;
+        let m_mirror = (kind != FactorKind::Lu).then(|| p.m.mirror_map());
         let factor = SparseFactor::new("M + rho H H^T", matrix, kind)?;
         let mut phi = vec![0.0; m];
         initial_shift(&p.mu, p.h.norm_fro(), &mut phi);
         let c = p.w.iter().zip(&phi).map(|(w, s)| -w - s).collect();
         let measure = MeasureWork::global(&p);
         Ok(Self {
-            mass,
             factor,
+            assembly,
+            m_mirror,
             sol: vec![0.0; dim],
             rhs: vec![0.0; dim],
             resid: vec![0.0; dim],
@@ -81,6 +86,30 @@ impl GlobalSplitting {
         for (o, x) in out.iter_mut().zip(&sol[n..]) {
             *o = -x;
         }
+    }
+
+    /// Makes the values now in `self.p` the system's (same patterns): scatters them through
+    /// the assembly map, restarts the shift and rescales the Newton phase; the caller sets
+    /// rho, which refactorizes. No sorting, no allocation, and no factorization of M alone:
+    /// the system's own factorization fails on an M that is not positive definite. When M
+    /// stopped being symmetric, the Cholesky system gives way to a new LU one.
+    fn take_values(&mut self) -> Result<(), Error> {
+        if let Some(mirror) = &self.m_mirror {
+            if !self.p.m.is_symmetric_with(mirror) {
+                *self = Self::new(self.p.clone())?;
+                return Ok(());
+            }
+        }
+        self.factor.reassemble(
+            &self.assembly,
+            base_triplets(&self.p),
+            gram_triplets(&self.p.h),
+        );
+        self.reset_shift();
+        if let Some(newton) = &mut self.newton {
+            newton.take_values(&self.p);
+        }
+        Ok(())
     }
 
     /// Restarts the De Saxce shift from its initial guess (docs/algorithms.md §5).
@@ -105,45 +134,40 @@ impl GlobalSplitting {
 }
 
 /// Symmetric part of M (upper triangle): positive definite exactly when `x^T M x > 0`.
-fn mass_matrix(p: &GlobalProblem) -> ParamMatrix {
+/// Factorized once, when the solver is built, for a clear error naming M.
+fn check_mass_matrix(p: &GlobalProblem) -> Result<(), Error> {
     let half = triplets(&p.m).flat_map(|(i, j, v)| [(i, j, 0.5 * v), (j, i, 0.5 * v)]);
-    ParamMatrix::from_triplets(p.n(), half, [], true)
+    let (matrix, _) = ParamMatrix::from_triplets(p.n(), half, [], true);
+    SparseFactor::new("M", matrix, FactorKind::Cholesky)?.set_rho(0.0)
+}
+
+/// The constant part of the v-update system, in a fixed order: M, then for each joint
+/// entry `G` and `G^T`, then the joint regularization.
+fn base_triplets(p: &GlobalProblem) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+    let n = p.n();
+    let joints = p.joints.iter().flat_map(move |j| {
+        let g = triplets(&j.g).flat_map(move |(i, k, v)| [(i, n + k, v), (n + k, i, v)]);
+        let reg = (0..j.g.ncols()).map(move |k| (n + k, n + k, -JOINT_DELTA));
+        g.chain(reg)
+    });
+    triplets(&p.m).chain(joints)
 }
 
 /// `M + rho H H^T`, or the joint system around it: `[[M + rho H H^T, G], [G^T, -delta I]]`.
 /// Cholesky / quasi-definite LDL^T on the upper triangle when M is symmetric (up to
 /// round-off), LU on the full pattern otherwise (some FEM files carry a non-symmetric M).
-fn system_matrix(p: &GlobalProblem) -> (ParamMatrix, FactorKind) {
+fn system_matrix(p: &GlobalProblem) -> (ParamMatrix, Assembly, FactorKind) {
     let n = p.n();
-    let gram = gram_triplets(&p.h);
+    let np = p.joints.as_ref().map_or(0, |j| j.g.ncols());
     let symmetric = p.m.is_symmetric();
-    match &p.joints {
-        None if symmetric => (
-            ParamMatrix::from_triplets(n, triplets(&p.m), gram, true),
-            FactorKind::Cholesky,
-        ),
-        None => (
-            ParamMatrix::from_triplets(n, triplets(&p.m), gram, false),
-            FactorKind::Lu,
-        ),
-        Some(j) => {
-            let np = j.g.ncols();
-            let g = triplets(&j.g).flat_map(|(i, k, v)| [(i, n + k, v), (n + k, i, v)]);
-            let reg = (0..np).map(|k| (n + k, n + k, -JOINT_DELTA));
-            let base: Vec<_> = triplets(&p.m).chain(g).chain(reg).collect();
-            if symmetric {
-                (
-                    ParamMatrix::from_triplets(n + np, base, gram, true),
-                    FactorKind::QuasiDefinite { n_positive: n },
-                )
-            } else {
-                (
-                    ParamMatrix::from_triplets(n + np, base, gram, false),
-                    FactorKind::Lu,
-                )
-            }
-        }
-    }
+    let (matrix, assembly) =
+        ParamMatrix::from_triplets(n + np, base_triplets(p), gram_triplets(&p.h), symmetric);
+    let kind = match (symmetric, np) {
+        (true, 0) => FactorKind::Cholesky,
+        (true, _) => FactorKind::QuasiDefinite { n_positive: n },
+        (false, _) => FactorKind::Lu,
+    };
+    (matrix, assembly, kind)
 }
 
 impl Splitting for GlobalSplitting {
@@ -256,15 +280,75 @@ impl ContactForm for GlobalSplitting {
                 });
             }
         }
-        let (matrix, _) = system_matrix(&p);
-        self.mass.replace_matrix(mass_matrix(&p))?;
-        self.mass.set_rho(0.0)?;
-        self.factor.replace_matrix(matrix)?;
+        if !Problem::same_global_pattern(&self.p, &p) {
+            return Err(Error::InvalidCsc {
+                field: "M, H or G",
+                reason: "the sparsity pattern differs from the one the solver was built for".into(),
+            });
+        }
         self.p = p;
-        self.reset_shift();
-        // Its per-contact scaling follows the values.
-        self.newton = None;
-        Ok(())
+        self.take_values()
+    }
+
+    fn update_values(&mut self, v: &NewValues) -> Result<(), Error> {
+        if v.delassus.is_some() || v.q.is_some() {
+            return Err(Error::Unsupported(
+                "update_values: W and q belong to a local problem, the solver holds a global one"
+                    .into(),
+            ));
+        }
+        // Everything is checked before anything changes.
+        let p = &mut self.p;
+        let (n, m) = (p.n(), p.w.len());
+        let vectors = [("f", v.f, n), ("w", v.w, m)];
+        for (field, x, len) in vectors {
+            if let Some(x) = x {
+                check_vector(field, x, len)?;
+            }
+        }
+        if let Some(x) = v.mu {
+            check_mu(x, p.mu.len())?;
+        }
+        if let Some(x) = v.m {
+            p.m.check_values("M", x)?;
+        }
+        if let Some(x) = v.h {
+            p.h.check_values("H", x)?;
+        }
+        match (&p.joints, v.g, v.b) {
+            (None, None, None) => {}
+            (None, _, _) => {
+                return Err(Error::Unsupported(
+                    "update_values: G or b given, but the problem has no joints".into(),
+                ))
+            }
+            (Some(j), g, b) => {
+                if let Some(g) = g {
+                    j.g.check_values("G", g)?;
+                }
+                if let Some(b) = b {
+                    check_vector("b", b, j.b.len())?;
+                }
+            }
+        }
+        let set = |dst: &mut CscMatrix, field, src: Option<&[f64]>| match src {
+            Some(src) => dst.set_values(field, src),
+            None => Ok(()),
+        };
+        set(&mut p.m, "M", v.m)?;
+        set(&mut p.h, "H", v.h)?;
+        if let Some(j) = &mut p.joints {
+            set(&mut j.g, "G", v.g)?;
+            if let Some(b) = v.b {
+                j.b.copy_from_slice(b);
+            }
+        }
+        for (dst, src) in [(&mut p.f, v.f), (&mut p.w, v.w), (&mut p.mu, v.mu)] {
+            if let Some(src) = src {
+                dst.copy_from_slice(src);
+            }
+        }
+        self.take_values()
     }
 
     fn n_velocities(&self) -> usize {
@@ -337,7 +421,7 @@ impl ContactForm for GlobalSplitting {
     }
 
     fn refactorizations(&self) -> usize {
-        self.factor.refactorizations() + self.mass.refactorizations()
+        self.factor.refactorizations()
     }
 
     fn polish(

@@ -3,16 +3,16 @@
 //! x-update: `(W + rho I) x = -(q + Phi(s)) + rho (z - zeta)`, by Cholesky when W is
 //! symmetric (up to round-off), by LU otherwise.
 
-use super::{de_saxce_shift, initial_shift, ContactForm};
+use super::{check_mu, check_vector, de_saxce_shift, initial_shift, ContactForm};
 use crate::admm::{EngineState, Splitting};
 use crate::cone::{de_saxce, get3, project_cone, set3};
 use crate::csc::norm2;
 use crate::error::Error;
-use crate::linsys::param_matrix::triplets;
+use crate::linsys::param_matrix::{triplets, Assembly};
 use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
 use crate::measure::{local_error_with, MeasureWork};
 use crate::newton::{LocalNewton, NewtonOutcome};
-use crate::problem::{LocalProblem, Problem};
+use crate::problem::{same_matrix_pattern, LocalProblem, NewValues, Problem};
 use crate::solver::Solution;
 use std::time::Instant;
 
@@ -20,13 +20,16 @@ use std::time::Instant;
 pub struct LocalSplitting {
     p: LocalProblem,
     factor: SparseFactor,
-    symmetric: bool,
+    /// Where W and `I` go in the system matrix (new values without re-sorting).
+    assembly: Assembly,
+    /// Mirror map of W when the system stores its upper triangle only.
+    w_mirror: Option<Vec<usize>>,
     q_shift: Vec<f64>,
     phi: Vec<f64>,
     zero: Vec<f64>,
     u: Vec<f64>,
     measure: MeasureWork,
-    /// The Newton phase, built on first use (and again after an update).
+    /// The Newton phase, built on first use and kept across updates.
     newton: Option<LocalNewton>,
 }
 
@@ -34,14 +37,16 @@ impl LocalSplitting {
     /// Chooses Cholesky or LU from the symmetry of W and analyses the pattern.
     pub(crate) fn new(p: LocalProblem) -> Result<Self, Error> {
         let m = p.q.len();
-        let (matrix, kind, symmetric) = system_matrix(&p);
+        let (matrix, assembly, kind) = system_matrix(&p);
+        let w_mirror = (kind == FactorKind::Cholesky).then(|| p.w.mirror_map());
         let factor = SparseFactor::new("W + rho I", matrix, kind)?;
         let mut phi = vec![0.0; m];
         initial_shift(&p.mu, p.w.norm_fro(), &mut phi);
         let q_shift = p.q.iter().zip(&phi).map(|(q, s)| q + s).collect();
         Ok(Self {
             factor,
-            symmetric,
+            assembly,
+            w_mirror,
             q_shift,
             phi,
             zero: vec![0.0; m],
@@ -50,6 +55,29 @@ impl LocalSplitting {
             newton: None,
             p,
         })
+    }
+
+    /// Makes the values now in `self.p` the system's (same pattern): scattered through the
+    /// assembly map, shift restarted, Newton phase rescaled; the caller sets rho, which
+    /// refactorizes. No sorting, no allocation, except when W stopped being symmetric: the
+    /// Cholesky system then gives way to a new LU one.
+    fn take_values(&mut self) -> Result<(), Error> {
+        if let Some(mirror) = &self.w_mirror {
+            if !self.p.w.is_symmetric_with(mirror) {
+                *self = Self::new(self.p.clone())?;
+                return Ok(());
+            }
+        }
+        self.factor.reassemble(
+            &self.assembly,
+            triplets(&self.p.w),
+            identity(self.p.q.len()),
+        );
+        self.reset_shift();
+        if let Some(newton) = &mut self.newton {
+            newton.take_values(&self.p);
+        }
+        Ok(())
     }
 
     /// Restarts the De Saxce shift from its initial guess (docs/algorithms.md §5).
@@ -71,24 +99,21 @@ impl LocalSplitting {
     }
 }
 
+fn identity(m: usize) -> impl Iterator<Item = (usize, usize, f64)> {
+    (0..m).map(|i| (i, i, 1.0))
+}
+
 /// `W + rho I`: Cholesky on the upper triangle when W is symmetric, LU otherwise.
-fn system_matrix(p: &LocalProblem) -> (ParamMatrix, FactorKind, bool) {
+fn system_matrix(p: &LocalProblem) -> (ParamMatrix, Assembly, FactorKind) {
     let m = p.q.len();
     let symmetric = p.w.is_symmetric();
-    let identity = (0..m).map(|i| (i, i, 1.0));
-    if symmetric {
-        (
-            ParamMatrix::from_triplets(m, triplets(&p.w), identity, true),
-            FactorKind::Cholesky,
-            true,
-        )
+    let (matrix, assembly) = ParamMatrix::from_triplets(m, triplets(&p.w), identity(m), symmetric);
+    let kind = if symmetric {
+        FactorKind::Cholesky
     } else {
-        (
-            ParamMatrix::from_triplets(m, triplets(&p.w), identity, false),
-            FactorKind::Lu,
-            false,
-        )
-    }
+        FactorKind::Lu
+    };
+    (matrix, assembly, kind)
 }
 
 impl Splitting for LocalSplitting {
@@ -158,18 +183,40 @@ impl ContactForm for LocalSplitting {
                 found: p.n_contacts(),
             });
         }
-        let (matrix, _, symmetric) = system_matrix(&p);
-        if symmetric != self.symmetric {
-            // The factorization kind changes with the symmetry of W: start over.
-            *self = Self::new(p)?;
-            return Ok(());
+        if !same_matrix_pattern(&p.w, &self.p.w) {
+            return Err(Error::InvalidCsc {
+                field: "W",
+                reason: "the sparsity pattern differs from the one the solver was built for".into(),
+            });
         }
-        self.factor.replace_matrix(matrix)?;
         self.p = p;
-        self.reset_shift();
-        // Its per-contact scaling follows the values.
-        self.newton = None;
-        Ok(())
+        self.take_values()
+    }
+
+    fn update_values(&mut self, v: &NewValues) -> Result<(), Error> {
+        if [v.m, v.h, v.g, v.f, v.w, v.b].iter().any(Option::is_some) {
+            return Err(Error::Unsupported(
+                "update_values: M, H, G, f, w and b belong to a global problem, the solver \
+                 holds a local one"
+                    .into(),
+            ));
+        }
+        let p = &mut self.p;
+        if let Some(x) = v.q {
+            check_vector("q", x, p.q.len())?;
+        }
+        if let Some(x) = v.mu {
+            check_mu(x, p.mu.len())?;
+        }
+        if let Some(x) = v.delassus {
+            p.w.set_values("W", x)?;
+        }
+        for (dst, src) in [(&mut p.q, v.q), (&mut p.mu, v.mu)] {
+            if let Some(src) = src {
+                dst.copy_from_slice(src);
+            }
+        }
+        self.take_values()
     }
 
     fn n_velocities(&self) -> usize {

@@ -16,7 +16,7 @@ use crate::admm::{EngineState, Splitting};
 use crate::cone::{de_saxce_term, get3, set3};
 use crate::error::Error;
 use crate::newton::NewtonOutcome;
-use crate::problem::Problem;
+use crate::problem::{NewValues, Problem};
 use crate::solver::Solution;
 use std::time::Instant;
 
@@ -26,6 +26,9 @@ pub(crate) trait ContactForm: Splitting {
     /// Takes new values on the same sizes and patterns (numeric refactorization only);
     /// a problem of the other form or other sizes is an error.
     fn update(&mut self, p: Problem) -> Result<(), Error>;
+    /// Takes new values in place (same patterns): scattered into the kept system matrix,
+    /// no sorting, no allocation; the caller sets rho, which refactorizes.
+    fn update_values(&mut self, v: &NewValues) -> Result<(), Error>;
     /// Length of `v` (0 for the local form).
     fn n_velocities(&self) -> usize;
     /// Cold start: zero iterate, initial De Saxce shift.
@@ -92,20 +95,5 @@ fn initial_shift(mu: &[f64], frobenius: f64, phi: &mut [f64]) {
 }
 
 /// Rejects a vector of the wrong length or with a non-finite entry.
-fn check_vector(field: &'static str, x: &[f64], expected: usize) -> Result<(), Error> {
-    if x.len() != expected {
-        return Err(Error::Dimension {
-            field,
-            expected,
-            found: x.len(),
-        });
-    }
-    match x.iter().position(|v| !v.is_finite()) {
-        Some(index) => Err(Error::InvalidValue {
-            field,
-            index,
-            reason: "not finite",
-        }),
-        None => Ok(()),
-    }
-}
+pub(crate) use crate::problem::check_len as check_vector;
+pub(crate) use crate::problem::check_mu;

@@ -5,11 +5,11 @@ use super::panic::{catch, guard, guard_value};
 use super::problem::{cadmm_problem, problem_ref};
 use super::result::{
     cadmm_result, cadmm_status, status_code, Failure, FfiResult, CADMM_ERR_INVALID_VALUE,
-    CADMM_ERR_PANIC,
+    CADMM_ERR_PANIC, CADMM_ERR_UNSUPPORTED,
 };
 use super::settings::{cadmm_settings, settings_ref};
 use super::stats::{cadmm_stats, cadmm_trace_point, write_stats, STATS_MIN_SIZE};
-use crate::problem::Problem;
+use crate::problem::{NewValues, Problem};
 use crate::solver::Solver;
 use crate::stats::{Phase, TracePoint};
 use std::cell::RefCell;
@@ -33,6 +33,9 @@ pub struct cadmm_solver {
     n_velocities: usize,
     n_contacts: usize,
     is_global: bool,
+    /// Lengths of the value arrays `cadmm_solver_update_values` reads: nnz of M (or W), H
+    /// and G, and the number of joint rows.
+    value_lens: [usize; 4],
     broken: Option<Broken>,
     /// Message of the last failed call; interior mutability because const calls fail too
     /// (the thread rule makes a solver single-threaded, const calls included).
@@ -146,6 +149,7 @@ pub unsafe extern "C" fn cadmm_solver_new(
             n_velocities: problem.n_velocities(),
             n_contacts: problem.n_contacts(),
             is_global: matches!(problem, Problem::Global(_)),
+            value_lens: value_lens(problem),
             broken: None,
             last_error: RefCell::new(CString::default()),
         }));
@@ -153,6 +157,141 @@ pub unsafe extern "C" fn cadmm_solver_new(
         unsafe { out.write(handle) };
         Ok(())
     })
+}
+
+fn value_lens(p: &Problem) -> [usize; 4] {
+    match p {
+        Problem::Global(g) => {
+            let (g_nnz, p) = g
+                .joints
+                .as_ref()
+                .map_or((0, 0), |j| (j.g.nnz(), j.g.ncols()));
+            [g.m.nnz(), g.h.nnz(), g_nnz, p]
+        }
+        Problem::Local(l) => [l.w.nnz(), 0, 0, 0],
+    }
+}
+
+/// Runs an update of the solver's problem; a failure leaves the solver refusing to solve
+/// until an update succeeds.
+fn update_with(
+    sv: &mut cadmm_solver,
+    update: impl FnOnce(&mut Solver) -> Result<(), crate::Error>,
+) -> FfiResult {
+    sv.check_usable(false)?;
+    match update(&mut sv.solver) {
+        Ok(()) => {
+            sv.broken = None;
+            Ok(())
+        }
+        Err(e) => {
+            let failure = Failure::from(e);
+            sv.broken = Some(Broken::UpdateFailed(failure.clone()));
+            Err(failure)
+        }
+    }
+}
+
+/// An optional input array: NULL means "keep the current values".
+///
+/// # Safety
+/// A non-NULL `ptr` must point to `len` readable elements.
+unsafe fn optional<'a>(what: &str, ptr: *const f64, len: usize) -> FfiResult<Option<&'a [f64]>> {
+    if ptr.is_null() {
+        return Ok(None);
+    }
+    // SAFETY: forwarded contract.
+    unsafe { input(what, ptr, len) }.map(Some)
+}
+
+/// The per-step path of a global problem: new values for the next time step of the same
+/// scene (same sizes and sparsity patterns), without building a problem. Each array may be
+/// NULL to keep the current values; matrix values are given in the order of the arrays
+/// passed to `cadmm_problem_new_global` / `cadmm_problem_set_joints` (`nnz` entries each),
+/// `f` has `n` entries, `w` `3 n_contacts`, `b` one per joint row, `mu` `n_contacts`.
+/// The values are scattered into the kept system matrix and refactorized once, without
+/// sorting or allocating; M is not factorized on its own (a non-positive-definite M makes
+/// the system's factorization fail). The next solve starts cold unless
+/// `cadmm_solver_warm_start` is called after this.
+///
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a non-finite value, a
+/// negative friction coefficient), `CADMM_ERR_UNSUPPORTED` (a local solver, or G/b for a
+/// problem without joints), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a
+/// failure the solver refuses to solve, as after a failed `cadmm_solver_update`.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn cadmm_solver_update_values(
+    sv: *mut cadmm_solver,
+    M_values: *const f64,
+    H_values: *const f64,
+    G_values: *const f64,
+    f: *const f64,
+    w: *const f64,
+    b: *const f64,
+    mu: *const f64,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_solver| -> FfiResult {
+        if !sv.is_global {
+            return Err(Failure::new(
+                CADMM_ERR_UNSUPPORTED,
+                "cadmm_solver_update_values: the solver holds a local problem; use \
+                 cadmm_solver_update_local_values",
+            ));
+        }
+        let [m_nnz, h_nnz, g_nnz, n_joints] = sv.value_lens;
+        let m = contact_len(sv.n_contacts)?;
+        // SAFETY: lengths from the problem the solver was built for; the caller's contract.
+        let values = unsafe {
+            NewValues {
+                m: optional("M_values", M_values, m_nnz)?,
+                h: optional("H_values", H_values, h_nnz)?,
+                g: optional("G_values", G_values, g_nnz)?,
+                f: optional("f", f, sv.n_velocities)?,
+                w: optional("w", w, m)?,
+                b: optional("b", b, n_joints)?,
+                mu: optional("mu", mu, sv.n_contacts)?,
+                ..Default::default()
+            }
+        };
+        update_with(sv, |s| s.update_values(&values))
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver_mut(sv, body) }
+}
+
+/// The per-step path of a local problem: new values of `W` (its `nnz` entries, in the order
+/// of the arrays passed to `cadmm_problem_new_local`), `q` (`3 n_contacts`) and `mu`
+/// (`n_contacts`), each NULL to keep the current values; same pattern, same behaviour and
+/// errors as `cadmm_solver_update_values` (`CADMM_ERR_UNSUPPORTED` for a global solver).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_update_local_values(
+    sv: *mut cadmm_solver,
+    W_values: *const f64,
+    q: *const f64,
+    mu: *const f64,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_solver| -> FfiResult {
+        if sv.is_global {
+            return Err(Failure::new(
+                CADMM_ERR_UNSUPPORTED,
+                "cadmm_solver_update_local_values: the solver holds a global problem; use \
+                 cadmm_solver_update_values",
+            ));
+        }
+        let m = contact_len(sv.n_contacts)?;
+        // SAFETY: lengths from the problem the solver was built for; the caller's contract.
+        let values = unsafe {
+            NewValues {
+                delassus: optional("W_values", W_values, sv.value_lens[0])?,
+                q: optional("q", q, m)?,
+                mu: optional("mu", mu, sv.n_contacts)?,
+                ..Default::default()
+            }
+        };
+        update_with(sv, |s| s.update_values(&values))
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver_mut(sv, body) }
 }
 
 /// Replaces the solver's problem by `p`, the next time step of the same scene: same form,
@@ -170,20 +309,9 @@ pub unsafe extern "C" fn cadmm_solver_update(
     p: *const cadmm_problem,
 ) -> cadmm_result {
     let body = |sv: &mut cadmm_solver| -> FfiResult {
-        sv.check_usable(false)?;
         // SAFETY: a live handle by contract.
         let problem = unsafe { problem_ref("p", p)? };
-        match sv.solver.update(problem.clone()) {
-            Ok(()) => {
-                sv.broken = None;
-                Ok(())
-            }
-            Err(e) => {
-                let failure = Failure::from(e);
-                sv.broken = Some(Broken::UpdateFailed(failure.clone()));
-                Err(failure)
-            }
-        }
+        update_with(sv, |s| s.update(problem.clone()))
     };
     // SAFETY: the caller's contract, forwarded.
     unsafe { with_solver_mut(sv, body) }

@@ -18,49 +18,111 @@ pub struct ParamMatrix {
     pub slope: Vec<f64>,
 }
 
+/// Where each input triplet of [`ParamMatrix::from_triplets`] landed in the value arrays,
+/// so that new values on the same pattern are scattered without sorting or allocating
+/// ([`ParamMatrix::reassemble`]). [`DROPPED`] marks a triplet left out (lower triangle).
+#[derive(Debug, Clone)]
+pub struct Assembly {
+    base: Vec<usize>,
+    slope: Vec<usize>,
+}
+
+/// Position of a triplet that is not stored.
+pub const DROPPED: usize = usize::MAX;
+
 impl ParamMatrix {
     /// Builds the pattern union of two triplet lists; with `upper_only`, entries below the
     /// diagonal are dropped (the caller passes both triangles of a symmetric matrix).
+    /// Duplicates are summed. Also returns where each triplet went.
     pub fn from_triplets(
         n: usize,
         base: impl IntoIterator<Item = (usize, usize, f64)>,
         slope: impl IntoIterator<Item = (usize, usize, f64)>,
         upper_only: bool,
-    ) -> Self {
-        let mut all: Vec<(usize, usize, f64, f64)> = base
+    ) -> (Self, Assembly) {
+        // (row, col, base value, slope value, source): source t < n_base is base triplet t,
+        // n_base + t is slope triplet t, and DROPPED the diagonal entries added below.
+        let mut all: Vec<(usize, usize, f64, f64, usize)> = base
             .into_iter()
             .map(|(i, j, v)| (i, j, v, 0.0))
-            .chain(slope.into_iter().map(|(i, j, v)| (i, j, 0.0, v)))
-            .filter(|e| !upper_only || e.0 <= e.1)
+            .enumerate()
+            .map(|(t, (i, j, b, s))| (i, j, b, s, t))
             .collect();
+        let n_base = all.len();
+        all.extend(
+            slope
+                .into_iter()
+                .enumerate()
+                .map(|(t, (i, j, v))| (i, j, 0.0, v, n_base + t)),
+        );
+        let n_slope = all.len() - n_base;
+        let mut assembly = Assembly {
+            base: vec![DROPPED; n_base],
+            slope: vec![DROPPED; n_slope],
+        };
+        all.retain(|e| !upper_only || e.0 <= e.1);
         // Every diagonal entry is in the pattern, so refactorizations never lose it.
-        all.extend((0..n).map(|i| (i, i, 0.0, 0.0)));
+        all.extend((0..n).map(|i| (i, i, 0.0, 0.0, DROPPED)));
         all.sort_by_key(|e| (e.1, e.0));
         let mut colptr = vec![0usize; n + 1];
         let (mut rowind, mut b, mut s) = (Vec::new(), Vec::new(), Vec::<f64>::new());
         let mut last = None;
-        for (i, j, vb, vs) in all {
-            if last == Some((i, j)) {
-                *b.last_mut().expect("entry exists") += vb;
-                *s.last_mut().expect("entry exists") += vs;
-                continue;
+        for (i, j, vb, vs, source) in all {
+            if last != Some((i, j)) {
+                last = Some((i, j));
+                rowind.push(i);
+                b.push(0.0);
+                s.push(0.0);
+                colptr[j + 1] += 1;
             }
-            last = Some((i, j));
-            rowind.push(i);
-            b.push(vb);
-            s.push(vs);
-            colptr[j + 1] += 1;
+            let pos = rowind.len() - 1;
+            b[pos] += vb;
+            s[pos] += vs;
+            match source {
+                DROPPED => {}
+                t if t < n_base => assembly.base[t] = pos,
+                t => assembly.slope[t - n_base] = pos,
+            }
         }
         for j in 0..n {
             colptr[j + 1] += colptr[j];
         }
-        Self {
+        let matrix = Self {
             n,
             colptr,
             rowind,
             base: b,
             slope: s,
+        };
+        (matrix, assembly)
+    }
+
+    /// New values on the pattern built by [`ParamMatrix::from_triplets`]: the triplets must
+    /// come in the same order and number as then (only the values are read). No sorting,
+    /// no allocation.
+    pub fn reassemble(
+        &mut self,
+        assembly: &Assembly,
+        base: impl IntoIterator<Item = (usize, usize, f64)>,
+        slope: impl IntoIterator<Item = (usize, usize, f64)>,
+    ) {
+        fn scatter(
+            out: &mut [f64],
+            dest: &[usize],
+            values: impl IntoIterator<Item = (usize, usize, f64)>,
+        ) {
+            out.fill(0.0);
+            let mut count = 0;
+            for (&d, (_, _, v)) in dest.iter().zip(values) {
+                count += 1;
+                if d != DROPPED {
+                    out[d] += v;
+                }
+            }
+            debug_assert_eq!(count, dest.len(), "triplets differ from the assembled ones");
         }
+        scatter(&mut self.base, &assembly.base, base);
+        scatter(&mut self.slope, &assembly.slope, slope);
     }
 
     /// Values of `A(rho)` into `out`.
@@ -77,14 +139,9 @@ pub fn triplets(a: &CscMatrix) -> impl Iterator<Item = (usize, usize, f64)> + '_
 }
 
 /// Triplets of `H H^T` (`H` is `n x m`), accumulated column by column of `H`.
-pub fn gram_triplets(h: &CscMatrix) -> Vec<(usize, usize, f64)> {
-    let mut t = Vec::new();
-    for k in 0..h.ncols() {
-        for (i, vi) in h.col(k) {
-            for (j, vj) in h.col(k) {
-                t.push((i, j, vi * vj));
-            }
-        }
-    }
-    t
+pub fn gram_triplets(h: &CscMatrix) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+    (0..h.ncols()).flat_map(move |k| {
+        h.col(k)
+            .flat_map(move |(i, vi)| h.col(k).map(move |(j, vj)| (i, j, vi * vj)))
+    })
 }

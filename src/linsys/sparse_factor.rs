@@ -1,5 +1,6 @@
 //! Sparse factorization of a [`ParamMatrix`] with faer, reused across rho values.
 
+use super::param_matrix::Assembly;
 use super::ParamMatrix;
 use crate::error::Error;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -121,21 +122,16 @@ impl SparseFactor {
         self.refactorizations
     }
 
-    /// Replaces the matrix by one with the same pattern (numeric update only) and drops
-    /// every cached factor.
-    pub fn replace_matrix(&mut self, matrix: ParamMatrix) -> Result<(), Error> {
-        if matrix.n != self.matrix.n
-            || matrix.colptr != self.matrix.colptr
-            || matrix.rowind != self.matrix.rowind
-        {
-            return Err(Error::InvalidCsc {
-                field: self.name,
-                reason: "the sparsity pattern differs from the one the solver was built for".into(),
-            });
-        }
-        self.matrix = matrix;
+    /// New values on the same pattern (see [`ParamMatrix::reassemble`]); drops every
+    /// cached factor, so the next [`SparseFactor::set_rho`] refactorizes. No allocation.
+    pub fn reassemble(
+        &mut self,
+        assembly: &Assembly,
+        base: impl IntoIterator<Item = (usize, usize, f64)>,
+        slope: impl IntoIterator<Item = (usize, usize, f64)>,
+    ) {
+        self.matrix.reassemble(assembly, base, slope);
         self.spare.extend(self.cache.drain(..).map(|(_, n)| n));
-        Ok(())
     }
 
     /// Makes `A(rho)` the current factor: a cached one when rho was used recently, a new

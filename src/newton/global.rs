@@ -44,7 +44,8 @@ pub struct GlobalNewton {
     rho: Vec<f64>,
     /// Joint scaling `S_k` (units of a Delassus entry).
     joint_scale: Vec<f64>,
-    ht: CscMatrix,
+    /// `diag(M)^-1` (scaling work).
+    minv: Vec<f64>,
     m_dest: Vec<usize>,
     g_dest: Vec<usize>,
     gt_dest: Vec<usize>,
@@ -100,7 +101,6 @@ impl GlobalNewton {
         let p = g.ncols();
         let (h, mm) = (&prob.h, &prob.m);
         let (ov, or) = (n + p, n + p); // offsets of the contact rows / columns
-        let ht = h.transpose();
         let gt = g.transpose();
         let mut cols: Vec<Vec<usize>> = vec![Vec::new(); n + p + m];
         for (i, j, _) in entries(mm) {
@@ -134,44 +134,17 @@ impl GlobalNewton {
         let diag_dest = (0..m).map(|c| pat.pos(ov + 3 * (c / 3), or + c)).collect();
         let lam_dest = (0..p).map(|k| pat.pos(n + k, n + k)).collect();
 
-        // diag(M)^-1 for the scalings (a non-positive diagonal entry is left out).
-        let mut minv = vec![0.0; n];
-        for (i, j, v) in entries(mm) {
-            if i == j && v > 0.0 {
-                minv[i] = 1.0 / v;
-            }
-        }
-        let mut rho = Vec::with_capacity(nc);
-        for i in 0..nc {
-            let mut blk = [[0.0; 3]; 3];
-            for a in 0..3 {
-                for b in 0..3 {
-                    blk[a][b] = weighted_dot(h, 3 * i + a, 3 * i + b, &minv);
-                }
-            }
-            rho.push(rho_from_block(&blk));
-        }
-        let joint_scale = (0..p)
-            .map(|k| {
-                let s = weighted_dot(g, k, k, &minv);
-                if s > 0.0 && s.is_finite() {
-                    s
-                } else {
-                    1.0
-                }
-            })
-            .collect();
         let lu = SparseLu::new("global Newton matrix", pat)?;
         let z3 = vec![[[0.0; 3]; 3]; nc];
         let nz = n + p + m;
-        Ok(Self {
+        let mut newton = Self {
             n,
             p,
             nc,
             patterns: [pattern_of(mm), pattern_of(h), pattern_of(g)],
-            rho,
-            joint_scale,
-            ht,
+            rho: vec![0.0; nc],
+            joint_scale: vec![0.0; p],
+            minv: vec![0.0; n],
             m_dest,
             g_dest,
             gt_dest,
@@ -198,7 +171,38 @@ impl GlobalNewton {
             best: vec![0.0; nz],
             z: vec![0.0; nz],
             measure: MeasureWork::global(prob),
-        })
+        };
+        newton.take_values(prob);
+        Ok(newton)
+    }
+
+    /// Recomputes the scalings from the values of `prob` (same patterns as at
+    /// construction): `rho_i = 1 / ||W_ii||_F` with `W_ii` approximated by
+    /// `H_i^T diag(M)^-1 H_i`, and the joint scalings. No allocation.
+    pub fn take_values(&mut self, prob: &GlobalProblem) {
+        // diag(M)^-1 (a non-positive diagonal entry is left out).
+        self.minv.fill(0.0);
+        for (i, j, v) in entries(&prob.m) {
+            if i == j && v > 0.0 {
+                self.minv[i] = 1.0 / v;
+            }
+        }
+        let h = &prob.h;
+        for (i, rho) in self.rho.iter_mut().enumerate() {
+            let mut blk = [[0.0; 3]; 3];
+            for a in 0..3 {
+                for b in 0..3 {
+                    blk[a][b] = weighted_dot(h, 3 * i + a, 3 * i + b, &self.minv);
+                }
+            }
+            *rho = rho_from_block(&blk);
+        }
+        if let Some(j) = &prob.joints {
+            for (k, scale) in self.joint_scale.iter_mut().enumerate() {
+                let s = weighted_dot(&j.g, k, k, &self.minv);
+                *scale = if s > 0.0 && s.is_finite() { s } else { 1.0 };
+            }
+        }
     }
 
     /// Per-contact `rho` (`rho_N = rho_T`) used by the Alart-Curnier function.
@@ -323,7 +327,7 @@ impl NewtonSystem for GlobalNewton {
         }
         let merit = crate::csc::dot(&self.rv, &self.rv) + crate::csc::dot(&self.rl, &self.rl);
         self.u.copy_from_slice(&prob.w);
-        self.ht.mul_vec(1.0, v, 1.0, &mut self.u);
+        prob.h.mul_t_vec(1.0, v, 1.0, &mut self.u);
         0.5 * merit
             + eval_all(
                 r,
@@ -394,7 +398,7 @@ impl NewtonSystem for GlobalNewton {
             j.g.mul_vec(-1.0, dl, 1.0, &mut self.jd_v);
             j.g.mul_t_vec(1.0, dv, 0.0, &mut self.gt_dv);
         }
-        self.ht.mul_vec(1.0, dv, 0.0, &mut self.ht_dv);
+        prob.h.mul_t_vec(1.0, dv, 0.0, &mut self.ht_dv);
         true
     }
 

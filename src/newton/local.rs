@@ -121,6 +121,14 @@ impl LocalNewton {
         })
     }
 
+    /// Recomputes `rho_i = 1 / ||W_ii||_F` from the values of `p` (same pattern as at
+    /// construction). No allocation.
+    pub fn take_values(&mut self, p: &LocalProblem) {
+        for (i, rho) in self.rho.iter_mut().enumerate() {
+            *rho = rho_from_block(&diag_block(&p.w, i));
+        }
+    }
+
     /// Per-contact `rho` (`rho_N = rho_T`) used by the Alart-Curnier function.
     pub fn rho(&self) -> &[f64] {
         &self.rho

@@ -6,4 +6,5 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod analysis;
+pub mod nonconvex;
 pub mod test_problems;

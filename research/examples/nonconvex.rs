@@ -34,7 +34,7 @@ struct Case {
 
 fn cases(full: bool) -> Vec<Case> {
     let (m, n) = if full { (15000, 500) } else { (3000, 100) };
-    let (d, c) = phase_measurements(m, n, 2016);
+    let phase = phase_measurements(m, n, 2016);
     vec![
         Case {
             problem: Box::new(L0Regression::new(&correlated_regression(2016), 1.0)),
@@ -45,7 +45,7 @@ fn cases(full: bool) -> Vec<Case> {
             stop: StopSettings::paper(2000),
         },
         Case {
-            problem: Box::new(PhaseRetrieval::new(d, c, 7).expect("D has full column rank")),
+            problem: Box::new(PhaseRetrieval::new(phase, 7).expect("D has full column rank")),
             stop: StopSettings::paper(200),
         },
         Case {

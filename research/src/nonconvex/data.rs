@@ -61,17 +61,28 @@ pub fn piecewise_signal(seed: u64) -> SignalData {
     SignalData { truth, noisy }
 }
 
-/// Phase retrieval data: a complex Gaussian `D` (`m x n`, real and imaginary parts
-/// `N(0, 1)`), a complex Gaussian `x`, and `c = |D x + e|` with `e` complex `N(0, 0.1^2)`
-/// per part. Returns `(D, c)`.
-pub fn phase_measurements(m: usize, n: usize, seed: u64) -> (DMatrix<Complex<f64>>, Vec<f64>) {
+/// A phase retrieval instance `c = |D x + e|`.
+#[derive(Debug, Clone)]
+pub struct PhaseData {
+    /// Measurement matrix `D`.
+    pub d: DMatrix<Complex<f64>>,
+    /// Measured magnitudes `c`.
+    pub c: Vec<f64>,
+    /// The signal the magnitudes were measured from.
+    pub x_true: DVector<Complex<f64>>,
+}
+
+/// Phase retrieval data (the seed's synthetic instance has `m = 15000`, `n = 500`): a
+/// complex Gaussian `D` (`m x n`, real and imaginary parts `N(0, 1)`), a complex Gaussian
+/// `x`, and `c = |D x + e|` with `e` complex, `N(0, 0.1^2)` per part.
+pub fn phase_measurements(m: usize, n: usize, seed: u64) -> PhaseData {
     let mut r = Rng::new(seed);
     let mut gauss = |s: f64| Complex::new(s * r.normal(), s * r.normal());
     let d = DMatrix::from_fn(m, n, |_, _| gauss(1.0));
     let x = DVector::from_fn(n, |_, _| gauss(1.0));
-    let dx = &d * x;
+    let dx = &d * &x;
     let c = dx.iter().map(|v| (v + gauss(0.1)).norm()).collect();
-    (d, c)
+    PhaseData { d, c, x_true: x }
 }
 
 /// A `size x size` matrix with `N(0, 1)` entries (the eigenvector problem).

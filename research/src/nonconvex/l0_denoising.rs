@@ -39,7 +39,7 @@ impl Tridiagonal {
         let (mut d, mut l) = (vec![0.0; n], vec![0.0; n.saturating_sub(1)]);
         for i in 0..n {
             d[i] = diag[i] - if i > 0 { l[i - 1] * off[i - 1] } else { 0.0 };
-            if !(d[i] > 0.0) {
+            if d[i].is_nan() || d[i] <= 0.0 {
                 return Err(Error::NotPositiveDefinite {
                     field: "I + rho grad^T grad",
                 });

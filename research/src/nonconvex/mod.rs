@@ -18,7 +18,7 @@ mod phase_retrieval;
 mod splitting;
 
 pub use data::{
-    correlated_regression, leading_eigen_matrix, phase_measurements, piecewise_signal,
+    correlated_regression, leading_eigen_matrix, phase_measurements, piecewise_signal, PhaseData,
     RegressionData, SignalData,
 };
 pub use eigenvector::Eigenvector;

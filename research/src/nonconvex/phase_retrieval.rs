@@ -5,7 +5,7 @@
 //! curvature estimates need. The smooth block has `F = 0`: its solve is the least-squares
 //! solve `s = (D^H D)^-1 D^H t`, independent of rho (Cholesky of `D^H D` once).
 
-use super::{NonconvexProblem, Quality};
+use super::{NonconvexProblem, PhaseData, Quality};
 use crate::test_problems::Rng;
 use cadmm::Error;
 use nalgebra::{linalg::Cholesky, Complex, DMatrix, DVector, Dyn};
@@ -44,7 +44,8 @@ pub struct PhaseRetrieval {
 impl PhaseRetrieval {
     /// `min 1/2 || |D x| - c ||^2`; the start is `D x0` for a complex Gaussian `x0` drawn
     /// with `start_seed`.
-    pub fn new(d: DMatrix<Complex<f64>>, c: Vec<f64>, start_seed: u64) -> Result<Self, Error> {
+    pub fn new(data: PhaseData, start_seed: u64) -> Result<Self, Error> {
+        let PhaseData { d, c, .. } = data;
         let gram =
             Cholesky::new(d.ad_mul(&d)).ok_or(Error::NotPositiveDefinite { field: "D^H D" })?;
         Ok(Self {
@@ -57,7 +58,12 @@ impl PhaseRetrieval {
 
     /// The objective at `x` (complex, as pairs of reals).
     pub fn objective(&self, x: &[f64]) -> f64 {
-        let dx = &self.d * to_complex(x);
+        self.objective_complex(&to_complex(x))
+    }
+
+    /// The objective at a complex `x`.
+    pub fn objective_complex(&self, x: &DVector<Complex<f64>>) -> f64 {
+        let dx = &self.d * x;
         dx.iter()
             .zip(&self.c)
             .map(|(z, c)| 0.5 * (z.norm() - c) * (z.norm() - c))

@@ -14,6 +14,7 @@
 #[path = "../../cli/src/font.rs"]
 mod font;
 
+use cadmm::Status;
 use cadmm_research::nonconvex::{
     correlated_regression, leading_eigen_matrix, phase_measurements, piecewise_signal, solve,
     Eigenvector, L0Denoising, L0Regression, NonconvexProblem, Order, PhaseRetrieval, RunResult,
@@ -162,7 +163,8 @@ fn json(problem: &str, r: &Row) -> String {
 fn print_table(problem: &str, rows: &[Row], stop: &StopSettings) {
     let grid = tau0_grid();
     eprintln!(
-        "\n{problem}: iterations to eq. (6) at {:e} ('{}+' = not converged)",
+        "\n{problem}: iterations to eq. (6) at {:e} ('{}+': not converged, 'Nx': overflowed \
+         at iteration N)",
         stop.tolerance, stop.max_iterations
     );
     eprint!("{:<36}", "order / strategy \\ tau0");
@@ -177,12 +179,10 @@ fn print_table(problem: &str, rows: &[Row], stop: &StopSettings) {
                 let cell = rows
                     .iter()
                     .find(|r| r.order == order && r.strategy == strategy && r.tau0 == *t)
-                    .map_or("-".to_string(), |r| {
-                        if r.result.converged {
-                            r.result.iterations.to_string()
-                        } else {
-                            format!("{}+", r.result.iterations)
-                        }
+                    .map_or("-".to_string(), |r| match r.result.status {
+                        Status::Solved => r.result.iterations.to_string(),
+                        Status::NumericalError => format!("{}x", r.result.iterations),
+                        _ => format!("{}+", r.result.iterations),
                     });
                 eprint!("{cell:>7}");
             }

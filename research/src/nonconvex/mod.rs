@@ -19,7 +19,7 @@
 //!   threshold (0.2) and hybrid step. Two safeguards differ: the authors' code stops
 //!   adapting after iteration 1000 (no run here that converges needs that many spectral
 //!   iterations), and the engine clamps rho to `[tau0 / 1e8, tau0 1e8]` (hit only by
-//!   spectral runs on the eigenvector problem only).
+//!   spectral runs on the eigenvector problem).
 //! * Denoising: the 1D signal only (no images available); its smooth solve is the exact
 //!   tridiagonal one, not an FFT solve with periodic boundaries.
 //! * Phase retrieval: a Gaussian instance of the seed's shape; the example's default

@@ -37,7 +37,13 @@ impl Csc {
             .map(|_| u.int_in_range(-1..=nrows as i64))
             .collect::<Result<Vec<i64>>>()?;
         let values = (0..nnz).map(|_| float(u)).collect::<Result<Vec<f64>>>()?;
-        let mut m = Self { nrows, ncols, colptr, rowind, values };
+        let mut m = Self {
+            nrows,
+            ncols,
+            colptr,
+            rowind,
+            values,
+        };
         if m.colptr[ncols] > 64 {
             m.colptr[ncols] = -1; // refused before rowind and values are read
         }
@@ -48,8 +54,16 @@ impl Csc {
             nrows: self.nrows,
             ncols: self.ncols,
             colptr: self.colptr.as_ptr(),
-            rowind: if self.rowind.is_empty() { null() } else { self.rowind.as_ptr() },
-            values: if self.values.is_empty() { null() } else { self.values.as_ptr() },
+            rowind: if self.rowind.is_empty() {
+                null()
+            } else {
+                self.rowind.as_ptr()
+            },
+            values: if self.values.is_empty() {
+                null()
+            } else {
+                self.values.as_ptr()
+            },
         }
     }
 }
@@ -77,10 +91,21 @@ fn readable(s: *const std::ffi::c_char) {
     let _ = unsafe { CStr::from_ptr(s) }.to_bytes().len();
 }
 
-fn new_problem(u: &mut Unstructured, n: usize, nc: usize, global: bool) -> Result<*mut cadmm_problem> {
+fn new_problem(
+    u: &mut Unstructured,
+    n: usize,
+    nc: usize,
+    global: bool,
+) -> Result<*mut cadmm_problem> {
     let mut out: *mut cadmm_problem = null_mut();
     let mu: Vec<f64> = (0..nc)
-        .map(|_| Ok(if u.ratio(7, 8)? { f64::from(u.int_in_range(0u8..=10)?) / 10.0 } else { float(u)? }))
+        .map(|_| {
+            Ok(if u.ratio(7, 8)? {
+                f64::from(u.int_in_range(0u8..=10)?) / 10.0
+            } else {
+                float(u)?
+            })
+        })
         .collect::<Result<_>>()?;
     let rc = if global {
         let mut m = Csc::new(u, n, n)?;
@@ -100,7 +125,16 @@ fn new_problem(u: &mut Unstructured, n: usize, nc: usize, global: bool) -> Resul
         let (mr, hr) = (m.raw(), h.raw());
         // SAFETY: every array has the length the header documents for n and nc.
         unsafe {
-            cadmm_problem_new_global(n, nc, &mr, &hr, ptr(u, &f)?, ptr(u, &w)?, ptr(u, &mu)?, &mut out)
+            cadmm_problem_new_global(
+                n,
+                nc,
+                &mr,
+                &hr,
+                ptr(u, &f)?,
+                ptr(u, &w)?,
+                ptr(u, &mu)?,
+                &mut out,
+            )
         }
     } else {
         let w = Csc::new(u, 3 * nc, 3 * nc)?;
@@ -118,13 +152,21 @@ fn new_problem(u: &mut Unstructured, n: usize, nc: usize, global: bool) -> Resul
 }
 
 fn c_string(u: &mut Unstructured, names: &[&str]) -> Result<CString> {
-    let s: String = if u.ratio(3, 4)? { (*u.choose(names)?).into() } else { u.arbitrary()? };
+    let s: String = if u.ratio(3, 4)? {
+        (*u.choose(names)?).into()
+    } else {
+        u.arbitrary()?
+    };
     Ok(CString::new(s.replace('\0', "")).unwrap())
 }
 
 fn run(data: &[u8]) -> Result<()> {
     let mut u = Unstructured::new(data);
-    let (n, nc, global) = (u.int_in_range(0..=6)?, u.int_in_range(0..=3)?, u.arbitrary()?);
+    let (n, nc, global) = (
+        u.int_in_range(0..=6)?,
+        u.int_in_range(0..=3)?,
+        u.arbitrary()?,
+    );
     let p = new_problem(&mut u, n, nc, global)?;
     let mut s: *mut cadmm_settings = null_mut();
     // SAFETY: every pointer below is NULL or valid; objects are freed once.
@@ -132,12 +174,26 @@ fn run(data: &[u8]) -> Result<()> {
         assert_eq!(cadmm_settings_new(&mut s), CADMM_OK);
         for _ in 0..u.int_in_range(0..=4)? {
             let rc = match u.int_in_range(0..=6)? {
-                0 => cadmm_settings_set_variant(s, c_string(&mut u, &["auto", "newton", "cp-N", "vp-RR-Spectral"])?.as_ptr()),
+                0 => cadmm_settings_set_variant(
+                    s,
+                    c_string(&mut u, &["auto", "newton", "cp-N", "vp-RR-Spectral"])?.as_ptr(),
+                ),
                 1 => cadmm_settings_set_tolerance(s, float(&mut u)?.abs() * 1e-9),
                 2 => cadmm_settings_set_max_iterations(s, u.int_in_range(0..=300)?),
                 3 => cadmm_settings_set_anderson(s, u.int_in_range(0..=12)?),
-                4 => cadmm_settings_set_initial_rho(s, c_string(&mut u, &["normal", "acary", "ghadimi", "dicairano", "given"])?.as_ptr(), float(&mut u)?),
-                5 => cadmm_settings_set_s_update(s, c_string(&mut u, &["internal", "external"])?.as_ptr()),
+                4 => cadmm_settings_set_initial_rho(
+                    s,
+                    c_string(
+                        &mut u,
+                        &["normal", "acary", "ghadimi", "dicairano", "given"],
+                    )?
+                    .as_ptr(),
+                    float(&mut u)?,
+                ),
+                5 => cadmm_settings_set_s_update(
+                    s,
+                    c_string(&mut u, &["internal", "external"])?.as_ptr(),
+                ),
                 _ => cadmm_settings_set_newton(s, u.arbitrary()?),
             };
             readable(cadmm_result_message(rc));
@@ -150,7 +206,10 @@ fn run(data: &[u8]) -> Result<()> {
         let mut sv: *mut cadmm_solver = null_mut();
         if !p.is_null() && cadmm_solver_new(p, s, &mut sv) == CADMM_OK {
             let (mut nn, mut ncc, mut is_global) = (0usize, 0usize, false);
-            assert_eq!(cadmm_problem_dims(p, &mut nn, &mut ncc, &mut is_global), CADMM_OK);
+            assert_eq!(
+                cadmm_problem_dims(p, &mut nn, &mut ncc, &mut is_global),
+                CADMM_OK
+            );
             let mut r = vec![0.0; 3 * ncc];
             let mut uu = vec![0.0; 3 * ncc];
             let mut v = vec![0.0; nn];
@@ -167,7 +226,11 @@ fn run(data: &[u8]) -> Result<()> {
                         let wr = floats(&mut u, 3 * ncc)?;
                         let wv = floats(&mut u, nn)?;
                         let vp = if u.arbitrary()? { null() } else { wv.as_ptr() };
-                        readable(cadmm_result_message(cadmm_solver_warm_start(sv, wr.as_ptr(), vp)));
+                        readable(cadmm_result_message(cadmm_solver_warm_start(
+                            sv,
+                            wr.as_ptr(),
+                            vp,
+                        )));
                     }
                     _ => {
                         let mut status: cadmm_status = -1;
@@ -177,7 +240,10 @@ fn run(data: &[u8]) -> Result<()> {
                     }
                 }
             }
-            assert_eq!(cadmm_solver_get_solution(sv, r.as_mut_ptr(), uu.as_mut_ptr(), v.as_mut_ptr()), CADMM_OK);
+            assert_eq!(
+                cadmm_solver_get_solution(sv, r.as_mut_ptr(), uu.as_mut_ptr(), v.as_mut_ptr()),
+                CADMM_OK
+            );
             let mut e = 0.0;
             let _ = cadmm_problem_error(p, r.as_ptr(), uu.as_ptr(), v.as_ptr(), &mut e);
             let mut stats: cadmm_stats = std::mem::zeroed();

@@ -22,8 +22,17 @@ fn floats(u: &mut Unstructured, len: usize) -> Result<Vec<f64>> {
 }
 
 /// Raw CSC arrays: sizes near the expected ones, indices mostly in range, sometimes not.
-fn csc(u: &mut Unstructured, field: &'static str, nrows: usize, ncols: usize) -> Result<Option<CscMatrix>> {
-    let ncols = if u.ratio(1, 16)? { u.int_in_range(0..=8)? } else { ncols };
+fn csc(
+    u: &mut Unstructured,
+    field: &'static str,
+    nrows: usize,
+    ncols: usize,
+) -> Result<Option<CscMatrix>> {
+    let ncols = if u.ratio(1, 16)? {
+        u.int_in_range(0..=8)?
+    } else {
+        ncols
+    };
     let mut colptr = vec![0usize];
     for _ in 0..ncols {
         let step = u.int_in_range(0..=nrows.min(6))?;
@@ -37,7 +46,11 @@ fn csc(u: &mut Unstructured, field: &'static str, nrows: usize, ncols: usize) ->
         colptr.pop();
     }
     let nnz = colptr.last().copied().unwrap_or(0);
-    let len = if u.ratio(1, 16)? { u.int_in_range(0..=40)? } else { nnz };
+    let len = if u.ratio(1, 16)? {
+        u.int_in_range(0..=40)?
+    } else {
+        nnz
+    };
     let mut rowind = Vec::with_capacity(len);
     for _ in 0..len {
         let beyond = usize::from(u.ratio(1, 16)?);
@@ -60,7 +73,13 @@ fn csc(u: &mut Unstructured, field: &'static str, nrows: usize, ncols: usize) ->
 fn problem(u: &mut Unstructured) -> Result<Option<Problem>> {
     let nc = u.int_in_range(0..=4)?;
     let mu: Vec<f64> = (0..nc + usize::from(u.ratio(1, 32)?))
-        .map(|_| Ok(if u.ratio(7, 8)? { f64::from(u.int_in_range(0u8..=20)?) / 10.0 } else { float(u)? }))
+        .map(|_| {
+            Ok(if u.ratio(7, 8)? {
+                f64::from(u.int_in_range(0u8..=20)?) / 10.0
+            } else {
+                float(u)?
+            })
+        })
         .collect::<Result<_>>()?;
     if u.arbitrary()? {
         let n = u.int_in_range(0..=8)?;

@@ -181,7 +181,7 @@ fn main() -> ExitCode {
                 let o = scenes::run(&case, form, variant, args.time_limit, 1_000_000);
                 let peak = PEAK.load(Relaxed) - before;
                 // Honest outcomes only: finite outputs, and "solved" confirmed independently.
-                if !o.finite || (o.status == "solved" && !(o.error <= 1e-8)) {
+                if !o.finite || (o.status == "solved" && (o.error.is_nan() || o.error > 1e-8)) {
                     failures += 1;
                 }
                 if args.json {

@@ -28,7 +28,7 @@ fn check(o: &Outcome, failures: &mut Vec<String>) {
     if !o.finite {
         failures.push(format!("{tag}: non-finite output ({})", o.status));
     } else if o.status == "solved" {
-        if !(o.error <= TOL) {
+        if o.error.is_nan() || o.error > TOL {
             failures.push(format!(
                 "{tag}: solved, but re-measured error {:e}",
                 o.error

@@ -10,25 +10,44 @@ use crate::csc::CscMatrix;
 use crate::error::Error;
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
 use crate::solver::Solution;
-use hdf5::{File, Group};
+use hdf5::{Dataset, File, Group};
 use std::path::Path;
 
 fn io(path: &Path, what: impl std::fmt::Display) -> Error {
     Error::Io(format!("{}: {what}", path.display()))
 }
 
-fn ints(g: &Group, name: &str, path: &Path) -> Result<Vec<i64>, Error> {
+/// Opens a dataset, refusing one that declares more elements than its file could hold
+/// (64 times the file size, room for compression): a corrupt header must give an error,
+/// not an allocation of its claimed size.
+fn dataset(g: &Group, name: &str, path: &Path) -> Result<Dataset, Error> {
     let d = g
         .dataset(name)
         .map_err(|e| io(path, format!("{}/{name}: {e}", g.name())))?;
+    let file_bytes = std::fs::metadata(path).map_or(0, |m| m.len());
+    let limit = file_bytes.max(1 << 16).saturating_mul(64);
+    let declared = (d.size() as u64).saturating_mul(8);
+    if declared > limit {
+        return Err(io(
+            path,
+            format!(
+                "{}/{name} declares {} elements, more than the file can hold",
+                g.name(),
+                d.size()
+            ),
+        ));
+    }
+    Ok(d)
+}
+
+fn ints(g: &Group, name: &str, path: &Path) -> Result<Vec<i64>, Error> {
+    let d = dataset(g, name, path)?;
     d.read_raw::<i64>()
         .map_err(|e| io(path, format!("{}/{name}: {e}", g.name())))
 }
 
 fn floats(g: &Group, name: &str, path: &Path) -> Result<Vec<f64>, Error> {
-    let d = g
-        .dataset(name)
-        .map_err(|e| io(path, format!("{}/{name}: {e}", g.name())))?;
+    let d = dataset(g, name, path)?;
     d.read_raw::<f64>()
         .map_err(|e| io(path, format!("{}/{name}: {e}", g.name())))
 }
@@ -253,8 +272,8 @@ pub fn read_solution(path: impl AsRef<Path>) -> Result<Solution, Error> {
         if !g.link_exists(name) {
             return Ok(Vec::new());
         }
-        g.dataset(name)
-            .and_then(|d| d.read_raw::<f64>())
+        dataset(&g, name, path)?
+            .read_raw::<f64>()
             .map_err(|e| io(path, format!("/solution/{name}: {e}")))
     };
     if !g.link_exists("r") {

@@ -152,3 +152,28 @@ pub fn data(rel: &str) -> std::path::PathBuf {
         .join("../shared/data/fclib")
         .join(rel)
 }
+
+/// The global measure of [`global_error`] (no joints) with sparse products, for problems
+/// too large for the dense version; the same formula, still independent of the library.
+pub fn global_error_sparse(p: &GlobalProblem, r: &[f64], v: &[f64]) -> f64 {
+    if !r.iter().chain(v).all(|x| x.is_finite()) {
+        return f64::INFINITY;
+    }
+    let n = p.n();
+    let (mut mv, mut hr) = (vec![0.0; n], vec![0.0; n]);
+    for j in 0..n {
+        for (i, x) in p.m.col(j) {
+            mv[i] += x * v[j];
+        }
+    }
+    let mut u = p.w.clone();
+    for j in 0..p.h.ncols() {
+        for (i, x) in p.h.col(j) {
+            hr[i] += x * r[j];
+            u[j] += x * v[i];
+        }
+    }
+    let eq: Vec<f64> = (0..n).map(|i| -mv[i] + hr[i] + p.f[i]).collect();
+    let e1 = rel(norm(&eq), norm(&p.f).max(norm(&mv)).max(norm(&hr)));
+    e1 + rel(natural_map(r, &u, &p.mu), norm(&u).max(norm(r)))
+}

@@ -1,0 +1,606 @@
+//! Extreme contact scenes built in code, shared by `examples/extreme.rs` and
+//! `tests/extreme.rs`: stiff mass ratios, extreme and mixed friction, unit scalings,
+//! redundant contacts, near-singular inertia, many contacts, an impact, separating and empty
+//! contact sets, and a granular pile.
+//!
+//! Every body is rigid with 6 velocity degrees of freedom `(v, omega)` in the world frame,
+//! its centre of mass as reference point, axes aligned with the world so that `M` is
+//! diagonal. One time step `h` of Moreau-Jean: `M v = H r + f` with `f = M v_prev + h F`.
+//! A contact between body `a` and body `b` (or the ground) has frame `(n, t1, t2)`, `n`
+//! pointing from `b` to `a`; the impulse `r` acts on `a` (and `-r` on `b`), and
+//! `u = H^T v + w` is the velocity of `a` relative to `b` at the contact point.
+
+// Dense reference code indexes rows and columns by number on purpose.
+#![allow(clippy::needless_range_loop)]
+#![allow(dead_code)]
+
+use cadmm::{
+    CscMatrix, GlobalProblem, LocalProblem, Problem, Settings, Solution, Solver, VariantChoice,
+};
+use std::time::Instant;
+
+pub type V3 = [f64; 3];
+
+/// Gravity (m/s^2) and time step (s) of every scene.
+pub const GRAVITY: f64 = 9.81;
+pub const STEP: f64 = 0.01;
+
+/// A rigid body: mass, principal inertia, position of its centre of mass, velocity before
+/// the step, applied force and torque over the step (gravity included by [`Scene::body`]).
+#[derive(Clone)]
+pub struct Body {
+    pub mass: f64,
+    pub inertia: V3,
+    pub x: V3,
+    pub v: V3,
+    pub omega: V3,
+    pub force: V3,
+    pub torque: V3,
+}
+
+/// A contact point of body `a` on body `b` (`None`: the fixed ground).
+#[derive(Clone)]
+pub struct Contact {
+    pub a: usize,
+    pub b: Option<usize>,
+    pub point: V3,
+    pub normal: V3,
+    pub mu: f64,
+    /// Free relative velocity added to `H^T v` (a gap or restitution term).
+    pub w: V3,
+}
+
+/// Bodies and contacts, assembled into a global problem.
+#[derive(Clone, Default)]
+pub struct Scene {
+    pub bodies: Vec<Body>,
+    pub contacts: Vec<Contact>,
+}
+
+fn cross(p: V3, d: V3) -> V3 {
+    [
+        p[1] * d[2] - p[2] * d[1],
+        p[2] * d[0] - p[0] * d[2],
+        p[0] * d[1] - p[1] * d[0],
+    ]
+}
+
+fn sub(p: V3, q: V3) -> V3 {
+    [p[0] - q[0], p[1] - q[1], p[2] - q[2]]
+}
+
+fn unit(p: V3) -> V3 {
+    let n = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+    [p[0] / n, p[1] / n, p[2] / n]
+}
+
+/// Orthonormal contact frame `(n, t1, t2)` with `t2 = n x t1`.
+fn frame(n: V3) -> [V3; 3] {
+    let n = unit(n);
+    let helper = if n[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let t1 = unit(cross(helper, n));
+    [n, t1, cross(n, t1)]
+}
+
+/// Principal inertia of a box of mass `m` and full side lengths `s`.
+pub fn box_inertia(m: f64, s: V3) -> V3 {
+    [
+        m * (s[1] * s[1] + s[2] * s[2]) / 12.0,
+        m * (s[0] * s[0] + s[2] * s[2]) / 12.0,
+        m * (s[0] * s[0] + s[1] * s[1]) / 12.0,
+    ]
+}
+
+impl Scene {
+    /// Adds a body at rest at `x` under gravity; returns its index.
+    pub fn body(&mut self, mass: f64, inertia: V3, x: V3) -> usize {
+        self.bodies.push(Body {
+            mass,
+            inertia,
+            x,
+            v: [0.0; 3],
+            omega: [0.0; 3],
+            force: [0.0, 0.0, -mass * GRAVITY],
+            torque: [0.0; 3],
+        });
+        self.bodies.len() - 1
+    }
+
+    pub fn contact(&mut self, a: usize, b: Option<usize>, point: V3, normal: V3, mu: f64) {
+        self.contacts.push(Contact {
+            a,
+            b,
+            point,
+            normal,
+            mu,
+            w: [0.0; 3],
+        });
+    }
+
+    /// The four bottom corners of box `a` (side lengths `s`) resting on `b` (or the ground).
+    pub fn corners(&mut self, a: usize, b: Option<usize>, s: V3, mu: [f64; 4]) {
+        let x = self.bodies[a].x;
+        let (hx, hy, hz) = (s[0] / 2.0, s[1] / 2.0, s[2] / 2.0);
+        for (k, (sx, sy)) in [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
+            .into_iter()
+            .enumerate()
+        {
+            let p = [x[0] + sx * hx, x[1] + sy * hy, x[2] - hz];
+            self.contact(a, b, p, [0.0, 0.0, 1.0], mu[k]);
+        }
+    }
+
+    /// `M`, `H`, `f = M v_prev + h F`, `w`, `mu`.
+    pub fn global(&self) -> GlobalProblem {
+        let n = 6 * self.bodies.len();
+        let mut m = Vec::with_capacity(n);
+        let mut f = Vec::with_capacity(n);
+        for b in &self.bodies {
+            let diag = [
+                b.mass,
+                b.mass,
+                b.mass,
+                b.inertia[0],
+                b.inertia[1],
+                b.inertia[2],
+            ];
+            let vel = [b.v[0], b.v[1], b.v[2], b.omega[0], b.omega[1], b.omega[2]];
+            let load = [
+                b.force[0],
+                b.force[1],
+                b.force[2],
+                b.torque[0],
+                b.torque[1],
+                b.torque[2],
+            ];
+            for k in 0..6 {
+                let i = m.len();
+                m.push((i, i, diag[k]));
+                f.push(diag[k] * vel[k] + STEP * load[k]);
+            }
+        }
+        let mut t = Vec::with_capacity(self.contacts.len() * 24);
+        let mut w = Vec::with_capacity(3 * self.contacts.len());
+        let mut mu = Vec::with_capacity(self.contacts.len());
+        for (k, c) in self.contacts.iter().enumerate() {
+            for (j, d) in frame(c.normal).into_iter().enumerate() {
+                let col = 3 * k + j;
+                let mut add = |body: usize, sign: f64| {
+                    let arm = cross(sub(c.point, self.bodies[body].x), d);
+                    for i in 0..3 {
+                        if d[i] != 0.0 {
+                            t.push((6 * body + i, col, sign * d[i]));
+                        }
+                        if arm[i] != 0.0 {
+                            t.push((6 * body + 3 + i, col, sign * arm[i]));
+                        }
+                    }
+                };
+                add(c.a, 1.0);
+                if let Some(b) = c.b {
+                    add(b, -1.0);
+                }
+            }
+            w.extend_from_slice(&c.w);
+            mu.push(c.mu);
+        }
+        let m = CscMatrix::from_triplets("M", n, n, &m).expect("M");
+        let h = CscMatrix::from_triplets("H", n, 3 * self.contacts.len(), &t).expect("H");
+        GlobalProblem::new(m, h, f, w, mu).expect("scene problem")
+    }
+}
+
+/// The Delassus form `W = H^T M^-1 H`, `q = w + H^T M^-1 f` of a problem with diagonal `M`,
+/// computed here without the library (dense `W`, exact zeros dropped).
+pub fn local_form(p: &GlobalProblem) -> LocalProblem {
+    let n = p.n();
+    let l = p.w.len();
+    let mut minv = vec![0.0; n];
+    for j in 0..n {
+        for (i, v) in p.m.col(j) {
+            assert_eq!(i, j, "local_form needs a diagonal M");
+            minv[j] = 1.0 / v;
+        }
+    }
+    // Columns of H as sparse lists; W_ij = sum_k H_ki H_kj / M_kk.
+    let cols: Vec<Vec<(usize, f64)>> = (0..l).map(|j| p.h.col(j).collect()).collect();
+    let mut dense_col = vec![0.0; n];
+    let mut t = Vec::new();
+    for j in 0..l {
+        for &(k, v) in &cols[j] {
+            dense_col[k] = v * minv[k];
+        }
+        for i in 0..l {
+            let s: f64 = cols[i].iter().map(|&(k, v)| v * dense_col[k]).sum();
+            if s != 0.0 {
+                t.push((i, j, s));
+            }
+        }
+        for &(k, _) in &cols[j] {
+            dense_col[k] = 0.0;
+        }
+    }
+    let w = CscMatrix::from_triplets("W", l, l, &t).expect("W");
+    let mf: Vec<f64> = (0..n).map(|k| minv[k] * p.f[k]).collect();
+    let q: Vec<f64> = (0..l)
+        .map(|j| p.w[j] + cols[j].iter().map(|&(k, v)| v * mf[k]).sum::<f64>())
+        .collect();
+    LocalProblem::new(w, q, p.mu.clone()).expect("local form")
+}
+
+/// The same problem in other units: lengths multiplied by `a`, masses by `b`, times by `c`
+/// (a value `x` in the old units is `a x` in the new ones when `x` is a length...). With
+/// `T = diag(1, 1, 1, a, a, a)` per body (angular rows carry a lever arm):
+///
+/// - velocities `v = (v_lin, omega)`: `v_lin` is length/time, `omega` 1/time, so
+///   `v' = (a / c) T^-1 v`;
+/// - impulses `r` (mass length / time): `r' = (a b / c) r`;
+/// - `M = diag(m, I)`: `m` scales by `b`, `I` (mass length^2) by `a^2 b`: `M' = b T M T`;
+/// - `H` maps `r` to (force, torque) impulses; its angular rows are lever arms: `H' = T H`;
+/// - `f = M v_prev + h F` is an impulse per row: `f' = (a b / c) T f`;
+/// - `w` is a velocity: `w' = (a / c) w`; `mu` is a ratio and does not change.
+///
+/// Then `M' v' = (a b / c) T M v`, `H' r' = (a b / c) T H r`, so `M' v' = H' r' + f'` holds
+/// exactly when `M v = H r + f` does, and `u' = H'^T v' + w' = (a / c) u`.
+pub fn scale_units(p: &GlobalProblem, a: f64, b: f64, c: f64) -> GlobalProblem {
+    let t = |i: usize| if i % 6 >= 3 { a } else { 1.0 };
+    let scale_rows = |x: &CscMatrix, both: bool, k: f64| {
+        let mut tr = Vec::with_capacity(x.nnz());
+        for j in 0..x.ncols() {
+            for (i, v) in x.col(j) {
+                let s = if both { t(i) * t(j) } else { t(i) };
+                tr.push((i, j, k * s * v));
+            }
+        }
+        tr
+    };
+    let n = p.n();
+    let m = CscMatrix::from_triplets("M", n, n, &scale_rows(&p.m, true, b)).expect("M");
+    let h =
+        CscMatrix::from_triplets("H", n, p.h.ncols(), &scale_rows(&p.h, false, 1.0)).expect("H");
+    let f = (0..n).map(|i| a * b / c * t(i) * p.f[i]).collect();
+    let w = p.w.iter().map(|x| a / c * x).collect();
+    GlobalProblem::new(m, h, f, w, p.mu.clone()).expect("scaled problem")
+}
+
+/// One case: its name, the family it belongs to, the global problem and, where it is
+/// meaningful and small enough, its local form.
+pub struct Case {
+    pub name: String,
+    pub family: &'static str,
+    pub global: GlobalProblem,
+    pub local: Option<LocalProblem>,
+}
+
+/// Largest `3 nc` for which a case also gets a (dense) local form.
+const LOCAL_MAX: usize = 1500;
+
+fn case(name: impl Into<String>, family: &'static str, scene: &Scene) -> Case {
+    let global = scene.global();
+    let local =
+        (global.w.len() <= LOCAL_MAX && global.n_contacts() > 0).then(|| local_form(&global));
+    Case {
+        name: name.into(),
+        family,
+        global,
+        local,
+    }
+}
+
+const UNIT: V3 = [1.0, 1.0, 1.0];
+
+/// A box of mass `top` on a box of mass `bottom` on the ground, four corners each.
+fn two_boxes(bottom: f64, top: f64, mu: [f64; 8], push: f64) -> Scene {
+    let mut s = Scene::default();
+    let lower = s.body(bottom, box_inertia(bottom, UNIT), [0.0, 0.0, 0.5]);
+    let upper = s.body(top, box_inertia(top, UNIT), [0.0, 0.0, 1.5]);
+    s.bodies[upper].force[0] = push * top * GRAVITY;
+    s.corners(lower, None, UNIT, [mu[0], mu[1], mu[2], mu[3]]);
+    s.corners(upper, Some(lower), UNIT, [mu[4], mu[5], mu[6], mu[7]]);
+    s
+}
+
+/// A vertical chain of `count` boxes, masses alternating 1 and `ratio`.
+fn chain(count: usize, ratio: f64) -> Scene {
+    let mut s = Scene::default();
+    for k in 0..count {
+        let m = if k % 2 == 0 { 1.0 } else { ratio };
+        let i = s.body(m, box_inertia(m, UNIT), [0.0, 0.0, 0.5 + k as f64]);
+        let below = k.checked_sub(1);
+        s.corners(i, below, UNIT, [0.3; 4]);
+    }
+    // A sideways push on the top box.
+    let top = count - 1;
+    s.bodies[top].force[0] = 0.1 * s.bodies[top].mass * GRAVITY;
+    s
+}
+
+/// A unit box on the ground by its four corners, pushed sideways by `push` times its weight.
+fn box_pushed(mu: f64, push: f64) -> Scene {
+    let mut s = Scene::default();
+    let b = s.body(1.0, box_inertia(1.0, UNIT), [0.0, 0.0, 0.5]);
+    s.bodies[b].force[0] = push * GRAVITY;
+    s.corners(b, None, UNIT, [mu; 4]);
+    s
+}
+
+/// The base scene of the unit-scaling family: a box on three points (no redundancy),
+/// pushed sideways off its centre, so it both slides and turns.
+fn tripod() -> Scene {
+    let mut s = Scene::default();
+    let b = s.body(2.0, box_inertia(2.0, [1.0, 0.8, 0.4]), [0.0, 0.0, 0.2]);
+    s.bodies[b].force[0] = 0.5 * 2.0 * GRAVITY;
+    s.bodies[b].torque[2] = 0.3;
+    for p in [[0.5, 0.0, 0.0], [-0.5, 0.4, 0.0], [-0.5, -0.4, 0.0]] {
+        s.contact(b, None, p, [0.0, 0.0, 1.0], 0.3);
+    }
+    s
+}
+
+/// A sphere lattice `nx x ny x nz` (radius 0.5, masses between 0.5 and 1.5, small random
+/// velocities) in contact with its vertical and horizontal neighbours and the ground.
+pub fn pile(nx: usize, ny: usize, nz: usize) -> Scene {
+    let mut s = Scene::default();
+    let mut seed: u64 = 0x2545_F491_4F6C_DD1D;
+    let mut rand = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let id = |i: usize, j: usize, k: usize| (k * ny + j) * nx + i;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let m = 0.5 + rand();
+                let b = s.body(m, [0.1 * m; 3], [i as f64, j as f64, 0.5 + k as f64]);
+                s.bodies[b].v = [0.1 * (rand() - 0.5), 0.1 * (rand() - 0.5), -0.1 * rand()];
+            }
+        }
+    }
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let b = id(i, j, k);
+                let x = s.bodies[b].x;
+                let below = k.checked_sub(1).map(|k| id(i, j, k));
+                s.contact(b, below, [x[0], x[1], x[2] - 0.5], [0.0, 0.0, 1.0], 0.5);
+                if i > 0 {
+                    s.contact(
+                        b,
+                        Some(id(i - 1, j, k)),
+                        [x[0] - 0.5, x[1], x[2]],
+                        [1.0, 0.0, 0.0],
+                        0.5,
+                    );
+                }
+                if j > 0 {
+                    s.contact(
+                        b,
+                        Some(id(i, j - 1, k)),
+                        [x[0], x[1] - 0.5, x[2]],
+                        [0.0, 1.0, 0.0],
+                        0.5,
+                    );
+                }
+            }
+        }
+    }
+    s
+}
+
+/// Mass ratios of the stiff family.
+pub const RATIOS: [f64; 5] = [1.0, 1e2, 1e4, 1e6, 1e8];
+/// Friction coefficients of the friction family.
+pub const MUS: [f64; 6] = [0.0, 1e-4, 0.3, 1.0, 10.0, 1e3];
+/// Unit factors of the scaling family (applied to length, mass and time in turn).
+pub const UNIT_FACTORS: [f64; 4] = [1e-6, 1e-3, 1e3, 1e6];
+
+/// Every case. `pile_size`: the granular pile's lattice (`nx, ny, nz`).
+pub fn cases(pile_size: (usize, usize, usize)) -> Vec<Case> {
+    let mut out = Vec::new();
+    for r in RATIOS {
+        out.push(case(
+            format!("heavy-on-light-{r:e}"),
+            "mass-ratio",
+            &two_boxes(1.0, r, [0.3; 8], 0.1),
+        ));
+        out.push(case(
+            format!("light-on-heavy-{r:e}"),
+            "mass-ratio",
+            &two_boxes(r, 1.0, [0.3; 8], 0.1),
+        ));
+        out.push(case(format!("chain-8-{r:e}"), "mass-ratio", &chain(8, r)));
+    }
+    for mu in MUS {
+        // Pushed by half its weight: slides for mu < 0.5, sticks above.
+        out.push(case(
+            format!("box-mu-{mu:e}"),
+            "friction",
+            &box_pushed(mu, 0.5),
+        ));
+    }
+    out.push(case(
+        "mixed-mu",
+        "friction",
+        &two_boxes(1.0, 3.0, [0.0, 1e-4, 0.3, 1.0, 10.0, 1e3, 0.3, 0.0], 0.4),
+    ));
+    // Normal load 1e-3 N against a tangential force of 1e3 N: slides even with mu = 10.
+    let mut s = Scene::default();
+    let b = s.body(1.0, box_inertia(1.0, UNIT), [0.0, 0.0, 0.5]);
+    s.bodies[b].force = [1e3, 0.0, -1e-3];
+    s.contact(b, None, [0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 10.0);
+    out.push(case("light-load-slide-mu-10", "friction", &s));
+
+    let base = tripod().global();
+    out.push(units_case("units-base", &base, 1.0, 1.0, 1.0));
+    for x in UNIT_FACTORS {
+        out.push(units_case(
+            &format!("units-length-{x:e}"),
+            &base,
+            x,
+            1.0,
+            1.0,
+        ));
+        out.push(units_case(&format!("units-mass-{x:e}"), &base, 1.0, x, 1.0));
+        out.push(units_case(&format!("units-time-{x:e}"), &base, 1.0, 1.0, x));
+    }
+
+    // Four coplanar corners and an exact duplicate of each: H has rank 6 of 24.
+    let mut s = box_pushed(0.3, 0.1);
+    let dup = s.contacts.clone();
+    s.contacts.extend(dup);
+    out.push(case("redundant-duplicated-corners", "redundant", &s));
+
+    // A rod along x lying on two points: inertia about its axis 1e-12 of the others.
+    let mut s = Scene::default();
+    let b = s.body(1.0, [1e-12 * 0.33, 0.33, 0.33], [0.0, 0.0, 0.01]);
+    s.bodies[b].force[1] = 0.2 * GRAVITY;
+    s.contact(b, None, [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0.5);
+    s.contact(b, None, [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0.5);
+    out.push(case("near-singular-inertia-1e-12", "inertia", &s));
+    // A plank 100 m x 1 m x 1 mm on its four corners, pushed and twisted.
+    let mut s = Scene::default();
+    let size = [100.0, 1.0, 1e-3];
+    let b = s.body(50.0, box_inertia(50.0, size), [0.0, 0.0, 5e-4]);
+    s.bodies[b].force[1] = 0.2 * 50.0 * GRAVITY;
+    s.bodies[b].torque[2] = 100.0;
+    s.corners(b, None, size, [0.4; 4]);
+    out.push(case("thin-long-plank", "inertia", &s));
+
+    // 1000 contacts on one body: a 40 x 25 grid under a box, pushed sideways.
+    let mut s = Scene::default();
+    let b = s.body(10.0, box_inertia(10.0, [4.0, 2.5, 1.0]), [0.0, 0.0, 0.5]);
+    s.bodies[b].force[0] = 0.2 * 10.0 * GRAVITY;
+    for i in 0..40 {
+        for j in 0..25 {
+            let p = [-1.95 + 0.1 * i as f64, -1.2 + 0.1 * j as f64, 0.0];
+            s.contact(b, None, p, [0.0, 0.0, 1.0], 0.3);
+        }
+    }
+    out.push(case("one-body-1000-contacts", "many", &s));
+
+    // A box landing at 1e3 m/s (and 10 m/s sideways) on its four corners.
+    let mut s = box_pushed(0.3, 0.0);
+    s.bodies[0].v = [10.0, 0.0, -1e3];
+    out.push(case("impact-1e3", "impact", &s));
+
+    // A box leaving the ground at 1 m/s: every contact separates, r = 0.
+    let mut s = box_pushed(0.3, 0.0);
+    s.bodies[0].v = [0.0, 0.0, 1.0];
+    out.push(case("all-separating", "trivial", &s));
+
+    let mut s = Scene::default();
+    s.body(1.0, box_inertia(1.0, UNIT), [0.0, 0.0, 0.5]);
+    out.push(case("zero-contacts", "trivial", &s));
+
+    let mut s = Scene::default();
+    let b = s.body(1.0, box_inertia(1.0, UNIT), [0.0, 0.0, 0.5]);
+    s.bodies[b].force[0] = 1.0;
+    s.contact(b, None, [0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0.3);
+    out.push(case("one-contact", "trivial", &s));
+
+    let (nx, ny, nz) = pile_size;
+    let s = pile(nx, ny, nz);
+    let name = format!("granular-pile-{}", s.contacts.len());
+    out.push(case(name, "pile", &s));
+    out
+}
+
+fn units_case(name: &str, base: &GlobalProblem, a: f64, b: f64, c: f64) -> Case {
+    let global = scale_units(base, a, b, c);
+    let local = Some(local_form(&global));
+    Case {
+        name: name.into(),
+        family: "units",
+        global,
+        local,
+    }
+}
+
+/// How one solve of one case ended, re-measured with `tests/common`.
+pub struct Outcome {
+    pub case: String,
+    pub form: &'static str,
+    pub variant: String,
+    /// The status name, or `error: ...` when the solver refused the problem.
+    pub status: String,
+    /// The error measure recomputed independently of the library.
+    pub error: f64,
+    /// The library's own final error.
+    pub reported_error: f64,
+    pub iterations: usize,
+    pub seconds: f64,
+    /// Every component of the returned `r`, `u`, `v` is finite.
+    pub finite: bool,
+    pub solution: Solution,
+}
+
+/// Largest `n * 3nc` for which the dense independent measure is used (the sparse one above).
+const DENSE_MAX: usize = 4_000_000;
+
+/// Solves `case` in `form` (`global` or `local`) with `variant` at 1e-8.
+pub fn run(
+    case: &Case,
+    form: &'static str,
+    variant: &str,
+    time_limit: f64,
+    max_iterations: usize,
+) -> Outcome {
+    let problem = match form {
+        "global" => Problem::Global(case.global.clone()),
+        _ => Problem::Local(case.local.clone().expect("case has a local form")),
+    };
+    let settings = Settings {
+        tolerance: 1e-8,
+        time_limit,
+        max_iterations,
+        variant: VariantChoice::from_name(variant).expect("variant name"),
+        ..Settings::default()
+    };
+    let t0 = Instant::now();
+    let mut out = Outcome {
+        case: case.name.clone(),
+        form,
+        variant: variant.to_string(),
+        status: String::new(),
+        error: f64::NAN,
+        reported_error: f64::NAN,
+        iterations: 0,
+        seconds: 0.0,
+        finite: true,
+        solution: Solution::default(),
+    };
+    let solved = Solver::new(problem.clone(), settings).and_then(|mut s| {
+        let status = s.solve()?;
+        Ok((status, s))
+    });
+    out.seconds = t0.elapsed().as_secs_f64();
+    match solved {
+        Ok((status, solver)) => {
+            let sol = solver.solution();
+            out.status = status.name().to_string();
+            out.iterations = solver.stats().iterations;
+            out.reported_error = solver.stats().error;
+            out.finite = sol
+                .r
+                .iter()
+                .chain(&sol.u)
+                .chain(&sol.v)
+                .all(|x| x.is_finite());
+            out.error = match &problem {
+                Problem::Global(g) if g.n() * g.w.len() > DENSE_MAX => {
+                    crate::common::global_error_sparse(g, &sol.r, &sol.v)
+                }
+                p => crate::common::error(p, &sol.r, &sol.v, &sol.lambda),
+            };
+            out.solution = sol;
+        }
+        Err(e) => out.status = format!("error: {e}"),
+    }
+    out
+}

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Short fuzzing run of every target in fuzz/ (cargo fuzz, nightly, AddressSanitizer):
+# FUZZ_SECONDS per target (default 10). The FCLib reader starts from a few small files of
+# ../shared/data/fclib copied to a temporary corpus; the other targets from an empty one.
+# A crash, a leak or a hang (an input over 10 s) fails the run; libFuzzer writes the input
+# to fuzz/artifacts/<target>/ to reproduce with `cargo +nightly fuzz run <target> <file>`.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${FUZZ_SECONDS:-10}
+
+if ! rustup toolchain list | grep -q '^nightly'; then
+  rustup toolchain install nightly --profile minimal
+fi
+if ! cargo fuzz --version >/dev/null 2>&1; then
+  cargo install cargo-fuzz --locked
+fi
+
+corpus=$(mktemp -d)
+trap 'rm -rf "$corpus"' EXIT
+mkdir -p "$corpus/fclib_read" "$corpus/problem_csc" "$corpus/c_api"
+data=../shared/data/fclib
+for f in local/FrictionContact3D_1c.hdf5 local/FC3D_Example1.hdf5 local/Rover4396.hdf5 \
+         global/Box_Stacks-i0122-82-5.hdf5; do
+  if [[ -f $data/$f ]]; then cp "$data/$f" "$corpus/fclib_read/"; fi
+done
+
+cd fuzz
+cargo +nightly fuzz build -O
+for target in problem_csc c_api fclib_read; do
+  echo "fuzz-short: $target, $seconds s"
+  cargo +nightly fuzz run -O "$target" "$corpus/$target" -- \
+    -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -print_final_stats=1
+done

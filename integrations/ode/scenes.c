@@ -3,7 +3,7 @@
 
 #include <string.h>
 
-const char *const scene_names = "tower, mass-ratio-100, mass-ratio-1000, pyramid";
+const char *const scene_names = "tower|mass-ratio-100|mass-ratio-1000|pyramid";
 
 static const double side = 0.5; /* every box is a 0.5 m cube */
 

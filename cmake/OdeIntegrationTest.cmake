@@ -3,8 +3,10 @@
 #   -DSTEP=build: install the build tree BUILD_DIR into WORK_DIR/prefix, then configure and
 #                 build the separate project SOURCE_DIR (integrations/ode) against that
 #                 prefix alone with find_package(cadmm).
-#   -DSTEP=run:   run WORK_DIR/build/cadmm_ode_stack with ARGS (a ;-list) and require the
-#                 exit code EXPECT_EXIT (default 0; the driver's --check exits with 1).
+#   -DSTEP=run:   run WORK_DIR/build/PROGRAM (default cadmm_ode_stack) with ARGS (a ;-list)
+#                 and require the exit code EXPECT_EXIT (default 0; the driver's --check
+#                 exits with 1). With VALGRIND (its path) and SUPPRESSIONS, under memcheck:
+#                 any error or definite/possible leak fails.
 cmake_minimum_required(VERSION 3.16)
 
 foreach(_var STEP WORK_DIR)
@@ -29,7 +31,10 @@ function(run)
 endfunction()
 
 set(PREFIX "${WORK_DIR}/prefix")
-set(EXE "${WORK_DIR}/build/cadmm_ode_stack")
+if(NOT PROGRAM)
+  set(PROGRAM cadmm_ode_stack)
+endif()
+set(EXE "${WORK_DIR}/build/${PROGRAM}")
 
 if(STEP STREQUAL "build")
   foreach(_var BUILD_DIR SOURCE_DIR C_COMPILER)
@@ -57,7 +62,12 @@ elseif(STEP STREQUAL "run")
   if(NOT DEFINED EXPECT_EXIT)
     set(EXPECT_EXIT 0)
   endif()
-  run(COMMAND "${EXE}" ${ARGS} EXPECT ${EXPECT_EXIT})
+  set(_wrap "")
+  if(VALGRIND)
+    set(_wrap "${VALGRIND}" --error-exitcode=99 --leak-check=full
+              --errors-for-leak-kinds=definite,possible "--suppressions=${SUPPRESSIONS}")
+  endif()
+  run(COMMAND ${_wrap} "${EXE}" ${ARGS} EXPECT ${EXPECT_EXIT})
 else()
   message(FATAL_ERROR "OdeIntegrationTest: STEP must be build or run, not '${STEP}'")
 endif()

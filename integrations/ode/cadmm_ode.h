@@ -49,8 +49,8 @@ typedef struct cadmm_ode_step_info {
 /* Defaults: mu 0.5, tolerance 1e-8, warm start on, match radius 1 cm. */
 cadmm_ode_options cadmm_ode_default_options(void);
 
-/* A new integration context (NULL when out of memory or the options are invalid; the
- * message is in cadmm_ode_last_error()). */
+/* A new integration context; NULL when out of memory or the options are invalid (mu or
+ * match radius negative or not finite, a tolerance cadmm refuses). */
 cadmm_ode *cadmm_ode_new(const cadmm_ode_options *options);
 void cadmm_ode_free(cadmm_ode *ctx);
 

@@ -1,8 +1,11 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Plots cadmm_ode_stack --trace CSV files side by side: per-step solve time, iterations
 and the top body's height against simulated time.
 
     plot_trace.py OUT.png "cadmm=tower_cadmm.csv" "ODE QuickStep=tower_quick.csv" ...
+
+Needs matplotlib (Debian: python3-matplotlib, for /usr/bin/python3). The solve time is
+the CPU time of the step's contact solve.
 """
 import csv
 import math

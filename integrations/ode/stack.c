@@ -291,7 +291,7 @@ int main(int argc, char **argv) {
         cadmm_result cr = cadmm_ode_assemble(ctx, s.world, s.bodies, s.n, cl.geoms, cl.n, STEP);
         if (o.solver == SOLVER_CADMM) {
             if (cr == CADMM_OK) cr = cadmm_ode_solve(ctx, &info);
-        } else {
+        } else if (cr == CADMM_OK) {
             t0 = now();
             ode_step(&s, &cl, o.solver, group, feedback, r);
         }

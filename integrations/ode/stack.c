@@ -1,0 +1,356 @@
+/*
+ * cadmm_ode_stack: box stacks simulated by ODE at 60 Hz, with contact impulses from cadmm
+ * (cadmm_ode.h) or from ODE's own solvers, printing one summary line.
+ *
+ *   cadmm_ode_stack --scene tower|mass-ratio-100|mass-ratio-1000|pyramid
+ *                   --solver cadmm|ode-quickstep|ode-step --seconds S
+ *                   [--json] [--trace FILE.csv] [--cold] [--check]
+ *
+ * --check exits with 1 when a body fell, the top body drifted 1 mm or more, or (cadmm) a
+ * step's solution is above the tolerance; 2 means bad arguments or a failed call.
+ *
+ * ODE's solvers get contact joints with mu 0.5 and dContactApprox1 (friction pyramid whose
+ * bound scales with the normal force), default iteration counts, ERP and CFM. Their
+ * impulses (joint feedback forces times h) are measured with cadmm's error measure on the
+ * same problem cadmm solves, so max_error compares like with like.
+ */
+#include "cadmm_ode.h"
+#include "scenes.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define STEP (1.0 / 60.0)
+#define MU 0.5
+#define MAX_CONTACTS_PER_PAIR 8
+
+typedef enum { SOLVER_CADMM, SOLVER_QUICKSTEP, SOLVER_STEP } solver_kind;
+
+typedef struct options {
+    const char *scene, *trace;
+    solver_kind solver;
+    double seconds;
+    int json, cold, check;
+} options;
+
+/* The contacts of one step, g1 always carrying a body. */
+typedef struct contact_list {
+    dContactGeom *geoms;
+    size_t n, cap;
+    int failed;
+} contact_list;
+
+typedef struct summary {
+    size_t steps, solved_steps, unsolved, builds, updates, contact_sum, warm_matched;
+    double iterations_sum, max_iterations, solve_ms_sum, max_solve_ms, cpu_ms_sum, max_cpu_ms;
+    double max_penetration, max_drift, max_error;
+    int fell;
+} summary;
+
+static double clock_ms(clockid_t clock) {
+    struct timespec t;
+    clock_gettime(clock, &t);
+    return 1e3 * (double)t.tv_sec + 1e-6 * (double)t.tv_nsec;
+}
+
+/* Wall time, and this thread's CPU time: on a shared machine the CPU time is the steadier
+ * figure (every solver here runs on the calling thread). */
+typedef struct stamp {
+    double wall, cpu;
+} stamp;
+
+static stamp now(void) {
+    return (stamp){clock_ms(CLOCK_MONOTONIC), clock_ms(CLOCK_THREAD_CPUTIME_ID)};
+}
+
+static int usage(const char *why) {
+    fprintf(stderr,
+            "cadmm_ode_stack: %s\n"
+            "usage: cadmm_ode_stack --scene %s --solver cadmm|ode-quickstep|ode-step\n"
+            "                       --seconds S [--json] [--trace FILE.csv] [--cold] [--check]\n",
+            why, scene_names);
+    return 2;
+}
+
+static int parse(int argc, char **argv, options *o) {
+    *o = (options){.solver = SOLVER_CADMM, .seconds = -1};
+    const char *solver = NULL;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        int has_value = i + 1 < argc;
+        if (!strcmp(a, "--json")) o->json = 1;
+        else if (!strcmp(a, "--cold")) o->cold = 1;
+        else if (!strcmp(a, "--check")) o->check = 1;
+        else if (!strcmp(a, "--scene") && has_value) o->scene = argv[++i];
+        else if (!strcmp(a, "--solver") && has_value) solver = argv[++i];
+        else if (!strcmp(a, "--trace") && has_value) o->trace = argv[++i];
+        else if (!strcmp(a, "--seconds") && has_value) {
+            char *end;
+            o->seconds = strtod(argv[++i], &end);
+            if (*end || !(o->seconds > 0) || !isfinite(o->seconds))
+                return usage("--seconds needs a positive number");
+        } else {
+            char why[256];
+            snprintf(why, sizeof why, "unknown argument or missing value: %s", a);
+            return usage(why);
+        }
+    }
+    if (!o->scene) return usage("--scene is required");
+    if (o->seconds < 0) return usage("--seconds is required");
+    if (!solver || !strcmp(solver, "cadmm")) o->solver = SOLVER_CADMM;
+    else if (!strcmp(solver, "ode-quickstep")) o->solver = SOLVER_QUICKSTEP;
+    else if (!strcmp(solver, "ode-step")) o->solver = SOLVER_STEP;
+    else return usage("--solver must be cadmm, ode-quickstep or ode-step");
+    return 0;
+}
+
+/* dSpaceCollide callback: every contact point of a pair, the moving geom first. */
+static void near_callback(void *data, dGeomID o1, dGeomID o2) {
+    contact_list *list = data;
+    if (!dGeomGetBody(o1) && !dGeomGetBody(o2)) return;
+    if (list->n + MAX_CONTACTS_PER_PAIR > list->cap) {
+        size_t cap = 2 * list->cap + MAX_CONTACTS_PER_PAIR;
+        dContactGeom *g = realloc(list->geoms, cap * sizeof *g);
+        if (!g) {
+            list->failed = 1;
+            return;
+        }
+        list->geoms = g;
+        list->cap = cap;
+    }
+    dContactGeom *out = &list->geoms[list->n];
+    int found = dCollide(o1, o2, MAX_CONTACTS_PER_PAIR, out, sizeof *out);
+    for (int k = 0; k < found; k++) {
+        dContactGeom *c = &out[k];
+        if (!dGeomGetBody(c->g1)) {
+            dGeomID g = c->g1;
+            c->g1 = c->g2;
+            c->g2 = g;
+            int side = c->side1;
+            c->side1 = c->side2;
+            c->side2 = side;
+            for (int d = 0; d < 3; d++) c->normal[d] = -c->normal[d];
+        }
+    }
+    list->n += (size_t)found;
+}
+
+/* ODE's own step with contact joints; the impulses (feedback force times h) go to r in
+ * the contact frames of cadmm_ode_frame. */
+static void ode_step(const scene *s, const contact_list *cl, solver_kind kind,
+                     dJointGroupID group, dJointFeedback *feedback, double *r) {
+    for (size_t c = 0; c < cl->n; c++) {
+        dContact ct;
+        memset(&ct, 0, sizeof ct);
+        ct.surface.mode = dContactApprox1;
+        ct.surface.mu = MU;
+        ct.geom = cl->geoms[c];
+        dJointID j = dJointCreateContact(s->world, group, &ct);
+        dJointAttach(j, dGeomGetBody(ct.geom.g1), dGeomGetBody(ct.geom.g2));
+        dJointSetFeedback(j, &feedback[c]);
+    }
+    if (kind == SOLVER_QUICKSTEP) dWorldQuickStep(s->world, STEP);
+    else dWorldStep(s->world, STEP);
+    for (size_t c = 0; c < cl->n; c++) {
+        dReal t1[3], t2[3];
+        const dReal *n = cl->geoms[c].normal, *f = feedback[c].f1;
+        cadmm_ode_frame(n, t1, t2);
+        r[3 * c] = STEP * (f[0] * n[0] + f[1] * n[1] + f[2] * n[2]);
+        r[3 * c + 1] = STEP * (f[0] * t1[0] + f[1] * t1[1] + f[2] * t1[2]);
+        r[3 * c + 2] = STEP * (f[0] * t2[0] + f[1] * t2[1] + f[2] * t2[2]);
+    }
+    dJointGroupEmpty(group);
+}
+
+/* Drift of the top body and whether any body left the stack (moved sideways by more than
+ * its half width) or sank (by more than half its half height). */
+static void observe(const scene *s, summary *sum, double *top_z, double *drift) {
+    for (size_t i = 0; i < s->n; i++) {
+        const dReal *x = dBodyGetPosition(s->bodies[i]);
+        double dx = x[0] - s->start[i][0], dy = x[1] - s->start[i][1];
+        double side = sqrt(dx * dx + dy * dy);
+        if (side > s->half[i][0] || x[2] < s->start[i][2] - 0.5 * s->half[i][2] || !isfinite(side))
+            sum->fell = 1;
+        if (i == s->top) {
+            *top_z = x[2];
+            *drift = side;
+            if (side > sum->max_drift || !isfinite(side)) sum->max_drift = side;
+        }
+    }
+}
+
+static const char *solver_name(solver_kind k) {
+    return k == SOLVER_CADMM ? "cadmm" : k == SOLVER_QUICKSTEP ? "ode-quickstep" : "ode-step";
+}
+
+static void print_number(const char *key, double x, int valid) {
+    if (valid && isfinite(x)) printf(",\"%s\":%.6g", key, x);
+    else printf(",\"%s\":null", key);
+}
+
+static void report(const options *o, const scene *s, const summary *sum) {
+    int is_cadmm = o->solver == SOLVER_CADMM;
+    double solved = sum->solved_steps ? (double)sum->solved_steps : 1.0;
+    if (o->json) {
+        printf("{\"scene\":\"%s\",\"solver\":\"%s\",\"warm\":%s,\"bodies\":%zu,\"steps\":%zu",
+               o->scene, solver_name(o->solver), is_cadmm && !o->cold ? "true" : "false", s->n,
+               sum->steps);
+        print_number("mean_iterations", sum->iterations_sum / solved, is_cadmm);
+        print_number("max_iterations", sum->max_iterations, is_cadmm);
+        print_number("mean_solve_ms", sum->solve_ms_sum / (double)sum->steps, 1);
+        print_number("max_solve_ms", sum->max_solve_ms, 1);
+        print_number("mean_solve_cpu_ms", sum->cpu_ms_sum / (double)sum->steps, 1);
+        print_number("max_solve_cpu_ms", sum->max_cpu_ms, 1);
+        print_number("max_penetration", sum->max_penetration, 1);
+        print_number("max_drift", sum->max_drift, 1);
+        printf(",\"fell\":%s", sum->fell ? "true" : "false");
+        print_number("max_error", sum->max_error, 1);
+        print_number("mean_contacts", (double)sum->contact_sum / (double)sum->steps, 1);
+        if (is_cadmm)
+            printf(",\"unsolved_steps\":%zu,\"solver_builds\":%zu,\"solver_updates\":%zu,"
+                   "\"warm_matched\":%zu",
+                   sum->unsolved, sum->builds, sum->updates, sum->warm_matched);
+        printf("}\n");
+    } else {
+        printf("%s with %s: %zu steps, %.3g ms per solve (max %.3g; CPU %.3g), max penetration %.3g m, "
+               "max drift %.3g m, max error %.3g, %s\n",
+               o->scene, solver_name(o->solver), sum->steps,
+               sum->solve_ms_sum / (double)sum->steps, sum->max_solve_ms,
+               sum->cpu_ms_sum / (double)sum->steps, sum->max_penetration,
+               sum->max_drift, sum->max_error, sum->fell ? "FELL" : "stands");
+        if (is_cadmm)
+            printf("iterations: mean %.1f, max %.0f; %zu solver builds, %zu updates, "
+                   "%zu steps above tolerance\n",
+                   sum->iterations_sum / solved, sum->max_iterations, sum->builds, sum->updates,
+                   sum->unsolved);
+    }
+}
+
+int main(int argc, char **argv) {
+    options o;
+    int rc = parse(argc, argv, &o);
+    if (rc) return rc;
+    dInitODE2(0);
+    scene s;
+    if (scene_build(&s, o.scene) != 0) {
+        dCloseODE();
+        return usage("unknown --scene");
+    }
+    cadmm_ode_options copt = cadmm_ode_default_options();
+    copt.mu = MU;
+    copt.warm_start = !o.cold;
+    cadmm_ode *ctx = cadmm_ode_new(&copt);
+    FILE *trace = o.trace ? fopen(o.trace, "w") : NULL;
+    dJointGroupID group = dJointGroupCreate(0);
+    contact_list cl = {0};
+    double *r = NULL;
+    dJointFeedback *feedback = NULL;
+    summary sum = {0};
+    int status = 0;
+    if (!ctx || (o.trace && !trace)) {
+        fprintf(stderr, "cadmm_ode_stack: %s\n",
+                !ctx ? "cannot create the cadmm context" : "cannot open the trace file");
+        status = 2;
+        goto done;
+    }
+    if (trace)
+        fprintf(trace, "step,time,solve_ms,solve_cpu_ms,iterations,error,contacts,rebuilt,warm_matched,"
+                       "top_z,top_drift,max_depth\n");
+
+    size_t steps = (size_t)llround(o.seconds / STEP);
+    for (size_t step = 0; step < steps; step++) {
+        cl.n = 0;
+        dSpaceCollide(s.space, &cl, near_callback);
+        if (cl.failed) {
+            fprintf(stderr, "cadmm_ode_stack: out of memory\n");
+            status = 2;
+            goto done;
+        }
+        double depth = 0.0;
+        for (size_t c = 0; c < cl.n; c++)
+            if (cl.geoms[c].depth > depth) depth = cl.geoms[c].depth;
+        if (depth > sum.max_penetration) sum.max_penetration = depth;
+
+        double *nr = realloc(r, (3 * cl.n + 1) * sizeof *r);
+        dJointFeedback *nf = realloc(feedback, (cl.n + 1) * sizeof *nf);
+        if (nr) r = nr;
+        if (nf) feedback = nf;
+        if (!nr || !nf) {
+            fprintf(stderr, "cadmm_ode_stack: out of memory\n");
+            status = 2;
+            goto done;
+        }
+
+        /* Both paths assemble cadmm's problem from the state before the step: cadmm solves
+         * it, ODE's solutions are measured on it. Only the solve is timed. */
+        cadmm_ode_step_info info = {0};
+        stamp t0 = now();
+        cadmm_result cr = cadmm_ode_assemble(ctx, s.world, s.bodies, s.n, cl.geoms, cl.n, STEP);
+        if (o.solver == SOLVER_CADMM) {
+            if (cr == CADMM_OK) cr = cadmm_ode_solve(ctx, &info);
+        } else if (cr == CADMM_OK) {
+            t0 = now();
+            ode_step(&s, &cl, o.solver, group, feedback, r);
+        }
+        stamp t1 = now();
+        double ms = t1.wall - t0.wall, cpu_ms = t1.cpu - t0.cpu;
+        if (cr == CADMM_OK && o.solver == SOLVER_CADMM) cr = cadmm_ode_impulses(ctx, r);
+        double error = 0.0;
+        if (cr == CADMM_OK) cr = cadmm_ode_error(ctx, r, &error);
+        if (cr != CADMM_OK) {
+            fprintf(stderr, "cadmm_ode_stack: step %zu: %s\n", step, cadmm_ode_last_error(ctx));
+            status = 2;
+            goto done;
+        }
+        sum.steps++;
+        sum.contact_sum += cl.n;
+        sum.solve_ms_sum += ms;
+        if (ms > sum.max_solve_ms) sum.max_solve_ms = ms;
+        sum.cpu_ms_sum += cpu_ms;
+        if (cpu_ms > sum.max_cpu_ms) sum.max_cpu_ms = cpu_ms;
+        if (error > sum.max_error || isnan(error)) sum.max_error = error;
+        if (info.solved) {
+            sum.solved_steps++;
+            sum.iterations_sum += (double)info.iterations;
+            if ((double)info.iterations > sum.max_iterations) sum.max_iterations = (double)info.iterations;
+            sum.unsolved += info.status != CADMM_STATUS_SOLVED;
+            sum.builds += info.rebuilt;
+            sum.updates += !info.rebuilt;
+            sum.warm_matched += info.warm_matched;
+        }
+        double top_z = 0.0, drift = 0.0;
+        observe(&s, &sum, &top_z, &drift);
+        if (trace)
+            fprintf(trace, "%zu,%.6f,%.6f,%.6f,%.0f,%.6e,%zu,%d,%zu,%.9f,%.9f,%.9f\n", step,
+                    (double)(step + 1) * STEP, ms, cpu_ms,
+                    info.solved ? (double)info.iterations : NAN, error, cl.n, info.rebuilt,
+                    info.warm_matched, top_z, drift, depth);
+    }
+    report(&o, &s, &sum);
+    if (o.check) {
+        const char *why = sum.fell                     ? "a body fell"
+                          : !(sum.max_drift < 1e-3)   ? "the top body drifted 1 mm or more"
+                          : sum.unsolved               ? "a cadmm solve ended above its tolerance"
+                          : !(sum.max_error <= copt.tolerance) && o.solver == SOLVER_CADMM
+                              ? "cadmm's solution measured above the tolerance"
+                              : NULL;
+        if (why) {
+            fprintf(stderr, "cadmm_ode_stack: check failed: %s (max drift %.3g m, max error %.3g)\n",
+                    why, sum.max_drift, sum.max_error);
+            status = 1;
+        }
+    }
+done:
+    if (trace) fclose(trace);
+    free(cl.geoms);
+    free(r);
+    free(feedback);
+    dJointGroupDestroy(group);
+    cadmm_ode_free(ctx);
+    scene_free(&s);
+    dCloseODE();
+    return status;
+}

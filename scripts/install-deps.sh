@@ -2,12 +2,13 @@
 # Installs what building and testing cadmm needs on a Debian machine, when missing:
 # cmake and pkg-config (C/CMake side), HDF5 (FCLib files), SuiteSparse and Eigen (the C
 # reference-solve tests), Bullet and ODE (the engine integrations), valgrind (memory checks of the C tests), Siconos numerics (the
-# peer the benchmarks compare against), a font for the benchmark plots and the Python
+# peer the benchmarks compare against), a font for the benchmark plots, matplotlib for the
+# Bullet trace plot (integrations/bullet/plot_trace.py) and the Python
 # packages of the error checker.
 set -euo pipefail
 
 debs=(cmake pkg-config libhdf5-dev libsuitesparse-dev libeigen3-dev valgrind fonts-dejavu-core
-      libbullet-dev libode-dev
+      libbullet-dev libode-dev python3-matplotlib
       libsiconos-numerics-dev python3-siconos python3-h5py python3-numpy python3-scipy)
 missing=()
 for d in "${debs[@]}"; do

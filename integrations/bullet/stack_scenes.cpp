@@ -34,7 +34,7 @@ btRigidBody *StackWorld::addBox(const btVector3 &he, double mass, const btVector
   btRigidBody *b = bodies_.back().get();
   b->setActivationState(DISABLE_DEACTIVATION);  // every step is solved, none skipped by sleeping
   world_->addRigidBody(b);
-  if (mass > 0) boxes.push_back(b);
+  if (mass > 0) boxes.push_back(b), rest.push_back(p);
   return b;
 }
 
@@ -56,6 +56,11 @@ double StackWorld::maxPenetration() const {
 bool buildScene(const std::string &name, StackWorld &w) {
   if (name == "tower") {  // five boxes, masses 1, 100, 1, 100, 1 from the bottom
     for (int i = 0; i < 5; ++i) w.addBox(kCube, i % 2 ? 100 : 1, btVector3(0, 0.5 + i, 0));
+  } else if (name == "drop") {  // the tower with 10 cm gaps: contacts appear as it settles
+    for (int i = 0; i < 5; ++i) {
+      w.addBox(kCube, i % 2 ? 100 : 1, btVector3(0, 0.6 + 1.1 * i, 0));
+      w.rest.back() = btVector3(0, 0.5 + i, 0);
+    }
   } else if (name == "mass-ratio-100" || name == "mass-ratio-1000") {
     w.addBox(kCube, 1, btVector3(0, 0.5, 0));
     w.addBox(kCube, name == "mass-ratio-100" ? 100 : 1000, btVector3(0, 1.5, 0));

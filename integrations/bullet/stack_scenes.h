@@ -27,6 +27,7 @@ class StackWorld {
   double maxPenetration() const;
 
   std::vector<btRigidBody *> boxes;  // the dynamic boxes, bottom first
+  std::vector<btVector3> rest;       // where each box should come to rest
 
  private:
   btDefaultCollisionConfiguration config_;
@@ -40,8 +41,9 @@ class StackWorld {
   std::vector<std::unique_ptr<btTypedConstraint>> joints_;
 };
 
-// Fills the world with scene "tower", "mass-ratio-100", "mass-ratio-1000", "pyramid" or
-// "pendulum" (two boxes on btPoint2PointConstraint joints); false for an unknown name.
+// Fills the world with scene "tower", "drop" (the tower falling into place), "mass-ratio-100",
+// "mass-ratio-1000", "pyramid" or "pendulum" (two boxes on btPoint2PointConstraint joints);
+// false for an unknown name.
 bool buildScene(const std::string &name, StackWorld &w);
 // Adds a hinge between the two lowest boxes (a joint type the cadmm solver refuses).
 void addHinge(StackWorld &w);

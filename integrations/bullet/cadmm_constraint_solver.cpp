@@ -70,8 +70,10 @@ btScalar CadmmConstraintSolver::solveGroup(btCollisionObject **bodies, int numBo
 
   pushValues(next_);
   if (options_.warmStart) {
-    const std::vector<double> r0 = next_.storedImpulses();
-    check(cadmm_solver_warm_start(solver_, r0.data(), nullptr), "cadmm_solver_warm_start",
+    // Impulses from the manifold points and the bodies' velocities, i.e. the last step's
+    // solution: with r alone ADMM restarts from u~ = 0 and needs ~10 iterations even at rest.
+    const std::vector<double> r0 = next_.storedImpulses(), v0 = next_.bodyVelocities();
+    check(cadmm_solver_warm_start(solver_, r0.data(), v0.data()), "cadmm_solver_warm_start",
           solver_);
   }
   cadmm_status status = 0;

@@ -23,7 +23,7 @@ namespace cadmm_bullet {
 
 struct SolverOptions {
   double tolerance = 1e-8;
-  bool warmStart = true;  // start from the impulses of the previous step
+  bool warmStart = true;  // start from the previous step's impulses and velocities
   double erp = -1;        // Baumgarte rate of the contacts; < 0: the world's m_erp2
 };
 

@@ -14,8 +14,9 @@ std::string name(const btCollisionObject *o) {
 
 bool fixed(const btCollisionObject *o) { return o->isStaticOrKinematicObject(); }
 
-// Velocity of a fixed body at world point p (kinematic bodies move, static ones do not).
-btVector3 fixedVelocity(const btCollisionObject *o, const btVector3 &p) {
+// Velocity of a body at world point p, from its current velocity (kinematic bodies move,
+// static ones do not).
+btVector3 pointVelocity(const btCollisionObject *o, const btVector3 &p) {
   const btRigidBody *rb = btRigidBody::upcast(o);
   return rb ? rb->getVelocityInLocalPoint(p - o->getWorldTransform().getOrigin())
             : btVector3(0, 0, 0);
@@ -141,7 +142,7 @@ double ContactProblem::addRow(Csc &J, const btCollisionObject *A, const btVector
     const double sign = s == 0 ? 1 : -1;
     const int i0 = index(side[s]);
     if (i0 < 0) {
-      fixedPart += sign * d.dot(fixedVelocity(side[s], *point[s]));
+      fixedPart += sign * d.dot(pointVelocity(side[s], *point[s]));
       continue;
     }
     const btVector3 arm = (*point[s] - side[s]->getWorldTransform().getOrigin()).cross(d);
@@ -184,7 +185,7 @@ void ContactProblem::addContact(btPersistentManifold *m, btManifoldPoint &cp,
   else if (!(c.splitImpulse && d > c.splitThreshold))
     wN += erp * d / h;
   // Restitution as Bullet's restitutionCurve: a bounce velocity above the threshold.
-  const btVector3 vA = fixedVelocity(A, pA), vB = fixedVelocity(B, pB);
+  const btVector3 vA = pointVelocity(A, pA), vB = pointVelocity(B, pB);
   const double approach = -pt.n.dot(vA - vB);
   if (cp.m_combinedRestitution > 0 && std::fabs(approach) >= info.m_restitutionVelocityThreshold &&
       approach > 0)

@@ -3,7 +3,7 @@
 # cmake and pkg-config (C/CMake side), HDF5 (FCLib files), SuiteSparse and Eigen (the C
 # reference-solve tests), Bullet and ODE (the engine integrations), valgrind (memory checks of the C tests), Siconos numerics (the
 # peer the benchmarks compare against), a font for the benchmark plots, matplotlib for the
-# ODE integration's trace plot (integrations/ode/plot_trace.py) and the Python
+# integrations' trace plots (integrations/*/plot_trace.py) and the Python
 # packages of the error checker.
 set -euo pipefail
 

@@ -1,0 +1,115 @@
+// The cadmm global problem of one Bullet solver group (bodies, persistent manifolds,
+// joints), with the maps back to Bullet's objects.
+//
+//   M v = H r + G lambda + f,   u = H^T v + w,   G^T v + b = 0,   r_i in K_{mu_i}
+//
+// Unknowns: the 6 velocities (linear, then angular, world frame, about the centre of mass)
+// of every dynamic body of the group, in the group's order. Static and kinematic bodies are
+// fixed: they have no unknowns and their velocity enters w (and b). Each contact point gets
+// the frame (n, t1, t2), n = the manifold's m_normalWorldOnB (from body 1 towards body 0) and
+// t1, t2 = btPlaneSpace1(n), so r_N >= 0 pushes body 0 along n, body 1 along -n, and
+// u_N = n . (velocity of body 0's point - velocity of body 1's point) + w_N.
+#pragma once
+
+#include <btBulletDynamicsCommon.h>
+#include <cadmm.h>
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+static_assert(sizeof(btScalar) == sizeof(double),
+              "cadmm_bullet needs Bullet in double precision (BT_USE_DOUBLE_PRECISION, the "
+              "*-float64 libraries)");
+
+namespace cadmm_bullet {
+
+// What the integration refuses (an unmapped constraint type, an unsupported body or contact
+// setting) or a failed cadmm call. The message names the object and the reason.
+struct Error : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// A sparse matrix in compressed sparse columns, as cadmm_csc wants it.
+struct Csc {
+  size_t nrows = 0, ncols = 0;
+  std::vector<int64_t> colptr{0}, rowind;
+  std::vector<double> values;
+
+  void clear(size_t rows);
+  void push(int64_t row, double value) { rowind.push_back(row), values.push_back(value); }
+  void endColumn() { colptr.push_back(int64_t(rowind.size())), ++ncols; }
+  cadmm_csc view() const { return {nrows, ncols, colptr.data(), rowind.data(), values.data()}; }
+  bool samePattern(const Csc &o) const {
+    return nrows == o.nrows && ncols == o.ncols && colptr == o.colptr && rowind == o.rowind;
+  }
+};
+
+// How the normal velocity is biased to remove penetration (w_N).
+struct Correction {
+  double erp = 0.2;           // fraction of the penetration removed per step (Baumgarte)
+  bool splitImpulse = false;  // Bullet's split impulse: shallow penetration is not in w_N
+  double splitThreshold = -0.04;
+};
+
+class ContactProblem {
+ public:
+  // Reads the group; throws Error for anything it cannot map (see the .cpp).
+  void assemble(btCollisionObject **bodies, int numBodies, btPersistentManifold **manifolds,
+                int numManifolds, btTypedConstraint **constraints, int numConstraints,
+                const btContactSolverInfo &info, const Correction &correction);
+
+  size_t velocities() const { return f.size(); }
+  size_t contacts() const { return mu.size(); }
+  size_t jointRows() const { return b.size(); }
+  bool samePattern(const ContactProblem &o) const {
+    return M.samePattern(o.M) && H.samePattern(o.H) && G.samePattern(o.G);
+  }
+
+  // A new cadmm problem with these values; throws Error with cadmm's message.
+  cadmm_problem *make() const;
+
+  // Impulses stored in the manifold points (m_appliedImpulse, m_appliedImpulseLateral1/2)
+  // read in this problem's frames: the warm start of the next solve. bulletFrames: the
+  // lateral impulses are along Bullet's own m_lateralFrictionDir1/2 (as its sequential
+  // impulse solver leaves them), with two directions or one.
+  std::vector<double> storedImpulses(bool bulletFrames = false, bool twoDirections = true) const;
+  // The bodies' current velocities, in this problem's order.
+  std::vector<double> bodyVelocities() const;
+  // The velocities without contact or joint impulse (M^-1 f): external forces applied.
+  const std::vector<double> &freeVelocities() const { return vfree_; }
+
+  // Writes impulses to the manifold points (and their frames to m_lateralFrictionDir1/2),
+  // joint impulses to the joints and velocities to the bodies.
+  void writeBack(const double *r, const double *v, const double *lambda) const;
+
+ private:
+  struct Point {
+    btManifoldPoint *cp;
+    btVector3 n, t1, t2;
+  };
+  int index(const btCollisionObject *o) const;  // body's first unknown, or -1 when fixed
+  void addBody(btRigidBody *rb, const btContactSolverInfo &info);
+  void addContact(btPersistentManifold *m, btManifoldPoint &cp, const btContactSolverInfo &info,
+                  const Correction &c);
+  void addPointToPoint(btPoint2PointConstraint &j, const btContactSolverInfo &info);
+  // One column of H or G: the relative velocity along d of point pA on A and pB on B;
+  // returns the part of that velocity from fixed bodies (their velocity is no unknown).
+  double addRow(Csc &J, const btCollisionObject *A, const btVector3 &pA,
+                const btCollisionObject *B, const btVector3 &pB, const btVector3 &d);
+
+  std::vector<btRigidBody *> bodies_;
+  std::unordered_map<const btCollisionObject *, int> index_;
+  std::vector<Point> points_;
+  std::vector<btTypedConstraint *> joints_;
+  std::vector<double> vfree_;
+  double h_ = 0;  // time step
+
+ public:
+  Csc M, H, G;
+  std::vector<double> f, w, mu, b;
+};
+
+}  // namespace cadmm_bullet

@@ -1,0 +1,89 @@
+#include "stack_scenes.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace cadmm_bullet {
+
+namespace {
+// Bullet multiplies the two bodies' frictions: sqrt(0.5) each gives mu = 0.5 at every contact.
+const double kFriction = std::sqrt(0.5);
+const btVector3 kCube(0.5, 0.5, 0.5);  // 1 m boxes
+}  // namespace
+
+StackWorld::StackWorld(std::unique_ptr<btConstraintSolver> solver) : solver_(std::move(solver)) {
+  world_ = std::make_unique<btDiscreteDynamicsWorld>(&dispatcher_, &broadphase_, solver_.get(),
+                                                     &config_);
+  world_->setGravity(btVector3(0, -9.81, 0));
+  addBox(btVector3(20, 0.5, 20), 0, btVector3(0, -0.5, 0));  // ground, top face at y = 0
+}
+
+StackWorld::~StackWorld() {
+  for (auto &j : joints_) world_->removeConstraint(j.get());
+  for (auto &b : bodies_) world_->removeRigidBody(b.get());
+}
+
+btRigidBody *StackWorld::addBox(const btVector3 &he, double mass, const btVector3 &p) {
+  shapes_.push_back(std::make_unique<btBoxShape>(he));
+  btVector3 inertia(0, 0, 0);
+  if (mass > 0) shapes_.back()->calculateLocalInertia(mass, inertia);
+  states_.push_back(std::make_unique<btDefaultMotionState>(btTransform(btQuaternion::getIdentity(), p)));
+  btRigidBody::btRigidBodyConstructionInfo ci(mass, states_.back().get(), shapes_.back().get(), inertia);
+  ci.m_friction = kFriction;
+  bodies_.push_back(std::make_unique<btRigidBody>(ci));
+  btRigidBody *b = bodies_.back().get();
+  b->setActivationState(DISABLE_DEACTIVATION);  // every step is solved, none skipped by sleeping
+  world_->addRigidBody(b);
+  if (mass > 0) boxes.push_back(b), rest.push_back(p);
+  return b;
+}
+
+void StackWorld::addJoint(std::unique_ptr<btTypedConstraint> j) {
+  joints_.push_back(std::move(j));
+  world_->addConstraint(joints_.back().get(), true);
+}
+
+double StackWorld::maxPenetration() const {
+  double worst = 0;
+  for (int i = 0; i < dispatcher_.getNumManifolds(); ++i) {
+    const btPersistentManifold *m = dispatcher_.getManifoldByIndexInternal(i);
+    for (int j = 0; j < m->getNumContacts(); ++j)
+      worst = std::max(worst, double(-m->getContactPoint(j).getDistance()));
+  }
+  return worst;
+}
+
+bool buildScene(const std::string &name, StackWorld &w) {
+  if (name == "tower") {  // five boxes, masses 1, 100, 1, 100, 1 from the bottom
+    for (int i = 0; i < 5; ++i) w.addBox(kCube, i % 2 ? 100 : 1, btVector3(0, 0.5 + i, 0));
+  } else if (name == "drop") {  // the tower with 10 cm gaps: contacts appear as it settles
+    for (int i = 0; i < 5; ++i) {
+      w.addBox(kCube, i % 2 ? 100 : 1, btVector3(0, 0.6 + 1.1 * i, 0));
+      w.rest.back() = btVector3(0, 0.5 + i, 0);
+    }
+  } else if (name == "mass-ratio-100" || name == "mass-ratio-1000") {
+    w.addBox(kCube, 1, btVector3(0, 0.5, 0));
+    w.addBox(kCube, name == "mass-ratio-100" ? 100 : 1000, btVector3(0, 1.5, 0));
+  } else if (name == "pyramid") {  // rows of 4, 3, 2, 1 boxes, 5 cm apart within a row
+    for (int row = 0; row < 4; ++row)
+      for (int k = 0; k < 4 - row; ++k)
+        w.addBox(kCube, 1, btVector3(1.05 * (k - (3 - row) / 2.0), 0.5 + row, 0));
+  } else if (name == "pendulum") {  // two boxes hanging by ball joints, swinging down
+    btRigidBody *a = w.addBox(kCube, 1, btVector3(1, 5, 0));
+    btRigidBody *b = w.addBox(kCube, 1, btVector3(2.5, 5, 0));
+    w.addJoint(std::make_unique<btPoint2PointConstraint>(*a, btVector3(-1, 0, 0)));
+    w.addJoint(std::make_unique<btPoint2PointConstraint>(*a, *b, btVector3(1, 0, 0),
+                                                         btVector3(-0.5, 0, 0)));
+  } else {
+    return false;
+  }
+  return true;
+}
+
+void addHinge(StackWorld &w) {
+  btRigidBody &a = *w.boxes.at(0), &b = *w.boxes.at(1);
+  w.addJoint(std::make_unique<btHingeConstraint>(a, b, btVector3(0, 0.5, 0), btVector3(0, -0.5, 0),
+                                                 btVector3(1, 0, 0), btVector3(1, 0, 0)));
+}
+
+}  // namespace cadmm_bullet

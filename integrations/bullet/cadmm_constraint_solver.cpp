@@ -37,14 +37,19 @@ void CadmmConstraintSolver::reset() {
 
 SolveStats CadmmConstraintSolver::takeStats() { return std::exchange(stats_, SolveStats{}); }
 
-// Hands a time step's values to cadmm: an update (numeric refactorization only) when the
-// sizes and sparsity patterns are those of the solver's problem, else a new solver.
+// Hands a time step's values to cadmm: when the sizes and sparsity patterns are those of the
+// solver's problem, the value arrays go straight to the solver (same order of the matrix
+// values; numeric refactorization only, no cadmm problem built), else a new solver.
 void CadmmConstraintSolver::pushValues(const ContactProblem &p) {
-  std::unique_ptr<cadmm_problem, void (*)(cadmm_problem *)> problem(p.make(), cadmm_problem_free);
   if (solver_ && p.samePattern(current_)) {
-    check(cadmm_solver_update(solver_, problem.get()), "cadmm_solver_update", solver_);
+    const bool joints = p.jointRows() > 0;  // G and b only for a problem with joints
+    check(cadmm_solver_update_values(solver_, p.M.values.data(), p.H.values.data(),
+                                     joints ? p.G.values.data() : nullptr, p.f.data(), p.w.data(),
+                                     joints ? p.b.data() : nullptr, p.mu.data()),
+          "cadmm_solver_update_values", solver_);
     return;
   }
+  std::unique_ptr<cadmm_problem, void (*)(cadmm_problem *)> problem(p.make(), cadmm_problem_free);
   cadmm_solver *fresh = nullptr;
   check(cadmm_solver_new(problem.get(), settings_, &fresh), "cadmm_solver_new");
   cadmm_solver_free(solver_);

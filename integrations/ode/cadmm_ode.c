@@ -36,11 +36,12 @@ struct cadmm_ode {
     cadmm_ode_options opt;
     cadmm_settings *settings;
     cadmm_solver *solver;
-    cadmm_problem *problem;
+    cadmm_problem *problem; /* built from the assembled arrays only when needed */
     char message[512];
 
     /* The assembled step. */
     dWorldID world;
+    bool assembled; /* the arrays below hold a complete assembly */
     double h;
     size_t n_bodies, n_slots, n_contacts;
     buffer bodies;    /* dBodyID per body */
@@ -315,6 +316,7 @@ cadmm_result cadmm_ode_assemble(cadmm_ode *ctx, dWorldID world, const dBodyID *b
     cadmm_problem_free(ctx->problem);
     ctx->problem = NULL;
     ctx->world = NULL; /* set once the assembly succeeded */
+    ctx->assembled = false;
     ctx->h = h;
     ctx->n_bodies = n_bodies;
     ctx->n_contacts = nc;
@@ -360,6 +362,7 @@ cadmm_result cadmm_ode_assemble(cadmm_ode *ctx, dWorldID world, const dBodyID *b
     ctx->pattern_len = 1 + 2 * nc + ns;
     if (nc == 0) {
         ctx->world = world;
+        ctx->assembled = true;
         return CADMM_OK;
     }
 
@@ -400,12 +403,20 @@ cadmm_result cadmm_ode_assemble(cadmm_ode *ctx, dWorldID world, const dBodyID *b
         w[3 * c + 1] = w[3 * c + 2] = 0.0;
         mu[c] = ctx->opt.mu;
     }
+    ctx->world = world;
+    ctx->assembled = true;
+    return CADMM_OK;
+}
+
+/* The cadmm problem of the assembled arrays, built on first use. */
+static cadmm_result build_problem(cadmm_ode *ctx) {
+    if (ctx->problem) return CADMM_OK;
+    size_t n = 6 * ctx->n_slots, nc = ctx->n_contacts;
     cadmm_csc M = {n, n, ctx->m_colptr.data, ctx->m_rowind.data, ctx->m_values.data};
     cadmm_csc H = {n, 3 * nc, ctx->h_colptr.data, ctx->h_rowind.data, ctx->h_values.data};
-    rc = cadmm_problem_new_global(n, nc, &M, &H, f, w, mu, &ctx->problem);
-    if (rc != CADMM_OK) return fail_cadmm(ctx, rc, "cadmm_problem_new_global");
-    ctx->world = world;
-    return CADMM_OK;
+    cadmm_result rc = cadmm_problem_new_global(n, nc, &M, &H, ctx->f.data, ctx->w.data,
+                                               ctx->mu.data, &ctx->problem);
+    return rc == CADMM_OK ? CADMM_OK : fail_cadmm(ctx, rc, "cadmm_problem_new_global");
 }
 
 /* ---- solve and integrate ------------------------------------------------------------- */
@@ -455,7 +466,8 @@ static bool same_pattern(const cadmm_ode *ctx) {
                   ctx->pattern_len * sizeof(long)) == 0;
 }
 
-/* Builds a new solver or updates the current one, warm starts it and solves. */
+/* Builds a new solver or gives the current one the step's values (same pattern: same
+ * order of the M and H values), warm starts it and solves. */
 static cadmm_result solve_contacts(cadmm_ode *ctx, cadmm_ode_step_info *info) {
     cadmm_result rc;
     info->rebuilt = !same_pattern(ctx);
@@ -463,6 +475,8 @@ static cadmm_result solve_contacts(cadmm_ode *ctx, cadmm_ode_step_info *info) {
         cadmm_solver_free(ctx->solver);
         ctx->solver = NULL;
         ctx->solver_pattern_len = 0;
+        rc = build_problem(ctx);
+        if (rc != CADMM_OK) return rc;
         rc = cadmm_solver_new(ctx->problem, ctx->settings, &ctx->solver);
         if (rc != CADMM_OK) return fail_cadmm(ctx, rc, "cadmm_solver_new");
         if (!reserve(&ctx->solver_pattern, ctx->pattern_len, sizeof(long)))
@@ -470,8 +484,9 @@ static cadmm_result solve_contacts(cadmm_ode *ctx, cadmm_ode_step_info *info) {
         memcpy(ctx->solver_pattern.data, ctx->pattern.data, ctx->pattern_len * sizeof(long));
         ctx->solver_pattern_len = ctx->pattern_len;
     } else {
-        rc = cadmm_solver_update(ctx->solver, ctx->problem);
-        if (rc != CADMM_OK) return fail_cadmm(ctx, rc, "cadmm_solver_update");
+        rc = cadmm_solver_update_values(ctx->solver, ctx->m_values.data, ctx->h_values.data, NULL,
+                                        ctx->f.data, ctx->w.data, NULL, ctx->mu.data);
+        if (rc != CADMM_OK) return fail_cadmm(ctx, rc, "cadmm_solver_update_values");
     }
     if (ctx->opt.warm_start && ctx->n_previous > 0) {
         if (!reserve(&ctx->used, ctx->n_previous, 1))
@@ -572,10 +587,12 @@ cadmm_result cadmm_ode_error(cadmm_ode *ctx, const double *r, double *error) {
     if (!ctx) return CADMM_ERR_NULL_POINTER;
     if ((!r && ctx->n_contacts) || !error)
         return fail(ctx, CADMM_ERR_NULL_POINTER, "cadmm_ode_error: NULL %s", !error ? "error" : "r");
-    if (ctx->n_contacts == 0 || !ctx->problem) {
+    if (ctx->n_contacts == 0 || !ctx->assembled) {
         *error = 0.0;
         return CADMM_OK;
     }
+    cadmm_result rc = build_problem(ctx);
+    if (rc != CADMM_OK) return rc;
     const dBodyID *bodies = ctx->bodies.data;
     const size_t *slot_body = ctx->slot_body.data;
     double *v = ctx->v.data;
@@ -587,6 +604,6 @@ cadmm_result cadmm_ode_error(cadmm_ode *ctx, const double *r, double *error) {
             v[6 * s + 3 + k] = av[k];
         }
     }
-    cadmm_result rc = cadmm_problem_error(ctx->problem, r, NULL, v, error);
+    rc = cadmm_problem_error(ctx->problem, r, NULL, v, error);
     return rc == CADMM_OK ? CADMM_OK : fail_cadmm(ctx, rc, "cadmm_problem_error");
 }

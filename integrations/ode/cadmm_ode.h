@@ -14,7 +14,8 @@
  * and orientations are integrated here (semi-implicit Euler, normalized quaternions).
  *
  * One cadmm solver lives across steps: a step with the same sparsity pattern as the last
- * updates it (numeric refactorization only), otherwise a new one is built. Impulses are
+ * hands it the new values (cadmm_solver_update_values: numeric refactorization only, no
+ * cadmm problem built), otherwise a new one is built. Impulses are
  * warm started from the previous step's, matched by geom pair and nearest point.
  */
 #ifndef CADMM_ODE_H

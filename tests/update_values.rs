@@ -134,9 +134,10 @@ fn global(step: &(CallerCsc, CallerCsc, Vec<f64>, Vec<f64>, Vec<f64>)) -> Global
 }
 
 fn settings() -> Settings {
-    let mut s = Settings::default();
-    s.tolerance = 1e-10;
-    s
+    Settings {
+        tolerance: 1e-10,
+        ..Settings::default()
+    }
 }
 
 #[test]

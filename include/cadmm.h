@@ -530,8 +530,7 @@ cadmm_result cadmm_solver_new(const struct cadmm_problem *p,
  * passed to `cadmm_problem_new_global` / `cadmm_problem_set_joints` (`nnz` entries each),
  * `f` has `n` entries, `w` `3 n_contacts`, `b` one per joint row, `mu` `n_contacts`.
  * The values are scattered into the kept system matrix and refactorized once, without
- * sorting or allocating; M is not factorized on its own (a non-positive-definite M makes
- * the system's factorization fail). The next solve starts cold unless
+ * sorting or allocating; M is refactorized on its own to check it is positive definite. The next solve starts cold unless
  * `cadmm_solver_warm_start` is called after this.
  *
  * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a non-finite value, a

@@ -94,9 +94,9 @@ impl Solver {
     /// time step of a scene), without building a problem: they are scattered into the kept
     /// system matrix through maps built once, then one numeric refactorization; no sorting,
     /// no allocation (except when a symmetric matrix stops being symmetric, which rebuilds
-    /// the system for LU). Every value is checked before any is taken. M is not factorized
-    /// on its own: the system's factorization fails on an M that is not positive definite,
-    /// and then the solver keeps failing until an update succeeds. The next solve starts
+    /// the system for LU). Every value is checked before any is taken; M is refactorized on
+    /// its own to check it is positive definite, and after a failed factorization the
+    /// solver keeps failing until an update succeeds. The next solve starts
     /// cold unless [`Solver::warm_start`] is called after this.
     pub fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
         self.form.update_values(values)?;

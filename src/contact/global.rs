@@ -23,6 +23,9 @@ const JOINT_DELTA: f64 = 1e-9;
 /// The global contact problem as an ADMM splitting.
 pub struct GlobalSplitting {
     p: GlobalProblem,
+    /// The symmetric part of M alone, refactorized at each update (see [`mass_factor`]).
+    mass: SparseFactor,
+    mass_assembly: Assembly,
     factor: SparseFactor,
     /// Where M, G and `H H^T` go in the system matrix (new values without re-sorting).
     assembly: Assembly,
@@ -52,7 +55,7 @@ impl GlobalSplitting {
         let n = p.n();
         let m = 3 * p.n_contacts();
         // M alone first: a clear error when M is not positive definite.
-        check_mass_matrix(&p)?;
+        let (mass, mass_assembly) = mass_factor(&p)?;
         let (matrix, assembly, kind) = system_matrix(&p);
         let dim = matrix.n;
         let m_mirror = (kind != FactorKind::Lu).then(|| p.m.mirror_map());
@@ -62,6 +65,8 @@ impl GlobalSplitting {
         let c = p.w.iter().zip(&phi).map(|(w, s)| -w - s).collect();
         let measure = MeasureWork::global(&p);
         Ok(Self {
+            mass,
+            mass_assembly,
             factor,
             assembly,
             m_mirror,
@@ -90,9 +95,10 @@ impl GlobalSplitting {
 
     /// Makes the values now in `self.p` the system's (same patterns): scatters them through
     /// the assembly map, restarts the shift and rescales the Newton phase; the caller sets
-    /// rho, which refactorizes. No sorting, no allocation, and no factorization of M alone:
-    /// the system's own factorization fails on an M that is not positive definite. When M
-    /// stopped being symmetric, the Cholesky system gives way to a new LU one.
+    /// rho, which refactorizes. No sorting, no allocation. M is refactorized on its own
+    /// (its symmetric part, much sparser than the system) because the system can be
+    /// positive definite while M is not. When M stopped being symmetric, the Cholesky
+    /// system gives way to a new LU one.
     fn take_values(&mut self) -> Result<(), Error> {
         if let Some(mirror) = &self.m_mirror {
             if !self.p.m.is_symmetric_with(mirror) {
@@ -100,6 +106,9 @@ impl GlobalSplitting {
                 return Ok(());
             }
         }
+        self.mass
+            .reassemble(&self.mass_assembly, mass_triplets(&self.p), []);
+        self.mass.set_rho(0.0)?;
         self.factor.reassemble(
             &self.assembly,
             base_triplets(&self.p),
@@ -133,12 +142,18 @@ impl GlobalSplitting {
     }
 }
 
-/// Symmetric part of M (upper triangle): positive definite exactly when `x^T M x > 0`.
-/// Factorized once, when the solver is built, for a clear error naming M.
-fn check_mass_matrix(p: &GlobalProblem) -> Result<(), Error> {
-    let half = triplets(&p.m).flat_map(|(i, j, v)| [(i, j, 0.5 * v), (j, i, 0.5 * v)]);
-    let (matrix, _) = ParamMatrix::from_triplets(p.n(), half, [], true);
-    SparseFactor::new("M", matrix, FactorKind::Cholesky)?.set_rho(0.0)
+/// Symmetric part of M as triplets: M is positive definite exactly when it is.
+fn mass_triplets(p: &GlobalProblem) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+    triplets(&p.m).flat_map(|(i, j, v)| [(i, j, 0.5 * v), (j, i, 0.5 * v)])
+}
+
+/// Cholesky factor of the symmetric part of M (upper triangle), kept so that every update
+/// checks M on its own: `M + rho H H^T` can be positive definite while M is not.
+fn mass_factor(p: &GlobalProblem) -> Result<(SparseFactor, Assembly), Error> {
+    let (matrix, assembly) = ParamMatrix::from_triplets(p.n(), mass_triplets(p), [], true);
+    let mut mass = SparseFactor::new("M", matrix, FactorKind::Cholesky)?;
+    mass.set_rho(0.0)?;
+    Ok((mass, assembly))
 }
 
 /// The constant part of the v-update system, in a fixed order: M, then for each joint
@@ -421,7 +436,7 @@ impl ContactForm for GlobalSplitting {
     }
 
     fn refactorizations(&self) -> usize {
-        self.factor.refactorizations()
+        self.factor.refactorizations() + self.mass.refactorizations()
     }
 
     fn polish(

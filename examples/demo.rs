@@ -220,17 +220,6 @@ struct Outcome {
     update_seconds: Vec<(f64, f64)>,
 }
 
-/// True when a solver built for `a` can take the values of `b` (same sizes and patterns).
-fn same_pattern(a: &GlobalProblem, b: &GlobalProblem) -> bool {
-    let same = |x: &CscMatrix, y: &CscMatrix| {
-        x.nrows() == y.nrows()
-            && x.ncols() == y.ncols()
-            && x.colptr() == y.colptr()
-            && x.rowind() == y.rowind()
-    };
-    same(&a.m, &b.m) && same(&a.h, &b.h)
-}
-
 fn main() -> ExitCode {
     let tilted = std::env::args().skip(1).any(|a| a == "--tilted");
     let planes = container(HALF_WIDTH);
@@ -313,7 +302,7 @@ fn main() -> ExitCode {
             let setup = Instant::now();
             match &mut kept {
                 // The per-step path: new values into the kept system, one refactorization.
-                Some((solver, last)) if same_pattern(last, &problem) => {
+                Some((solver, last)) if last.same_pattern(&problem) => {
                     solver
                         .update_values(&NewValues {
                             m: Some(problem.m.values()),

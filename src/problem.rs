@@ -157,6 +157,18 @@ impl GlobalProblem {
     pub fn n_contacts(&self) -> usize {
         self.mu.len()
     }
+
+    /// True when a solver built for this problem can take the values of `other`
+    /// ([`crate::Solver::update_values`]): same sizes and sparsity patterns of M, H and G.
+    pub fn same_pattern(&self, other: &GlobalProblem) -> bool {
+        same_matrix_pattern(&self.m, &other.m)
+            && same_matrix_pattern(&self.h, &other.h)
+            && match (&self.joints, &other.joints) {
+                (None, None) => true,
+                (Some(x), Some(y)) => same_matrix_pattern(&x.g, &y.g),
+                _ => false,
+            }
+    }
 }
 
 impl LocalProblem {
@@ -201,20 +213,10 @@ impl Problem {
     /// built for one can be updated to the other with a numeric refactorization only.
     pub fn same_pattern(&self, other: &Problem) -> bool {
         match (self, other) {
-            (Problem::Global(a), Problem::Global(b)) => Self::same_global_pattern(a, b),
+            (Problem::Global(a), Problem::Global(b)) => a.same_pattern(b),
             (Problem::Local(a), Problem::Local(b)) => same_matrix_pattern(&a.w, &b.w),
             _ => false,
         }
-    }
-
-    pub(crate) fn same_global_pattern(a: &GlobalProblem, b: &GlobalProblem) -> bool {
-        same_matrix_pattern(&a.m, &b.m)
-            && same_matrix_pattern(&a.h, &b.h)
-            && match (&a.joints, &b.joints) {
-                (None, None) => true,
-                (Some(x), Some(y)) => same_matrix_pattern(&x.g, &y.g),
-                _ => false,
-            }
     }
 }
 

@@ -295,7 +295,7 @@ impl ContactForm for GlobalSplitting {
                 });
             }
         }
-        if !Problem::same_global_pattern(&self.p, &p) {
+        if !self.p.same_pattern(&p) {
             return Err(Error::InvalidCsc {
                 field: "M, H or G",
                 reason: "the sparsity pattern differs from the one the solver was built for".into(),

@@ -403,6 +403,7 @@ fn short_status(s: Status) -> &'static str {
         Status::TimeLimit => "time",
         Status::NumericalError => "nan",
         Status::Stalled => "stall",
+        Status::Infeasible => "infeasible",
     }
 }
 

@@ -184,6 +184,16 @@ typedef struct cadmm_stats {
      * Newton phases that ended above the tolerance, after which ADMM resumed.
      */
     uint64_t newton_fallbacks;
+    /**
+     * Contact islands the problem was solved as (1 when islands are off or the problem is
+     * one island, 0 without contacts); read each with `cadmm_solver_get_island_stats`.
+     */
+    uint64_t islands;
+    /**
+     * The first island that ended unsolved when the solve is not solved because of one,
+     * otherwise -1.
+     */
+    int64_t failed_island;
 } cadmm_stats;
 
 /**
@@ -298,6 +308,12 @@ typedef struct cadmm_trace_point {
  * which has no ADMM to fall back on); the solution is its best iterate.
  */
 #define CADMM_STATUS_STALLED 4
+
+/**
+ * No impulse can satisfy some contact: its columns of H are empty, so no velocity moves
+ * it, and its fixed relative velocity `w` approaches.
+ */
+#define CADMM_STATUS_INFEASIBLE 5
 
 #ifdef __cplusplus
 extern "C" {
@@ -510,6 +526,25 @@ cadmm_result cadmm_settings_set_newton(struct cadmm_settings *s, bool on);
 void cadmm_settings_free(struct cadmm_settings *s);
 
 /**
+ * Switches contact islands on or off (default on): with islands, the problem is split into
+ * the connected parts of its coupling graph (bodies, contacts, joints; the blocks of W in
+ * the local form), each solved on its own with its own penalty, stopping test and
+ * factorization, and velocities no contact reaches get `v = M^-1 f` (docs/algorithms.md
+ * §12). Errors: `CADMM_ERR_NULL_POINTER`.
+ */
+cadmm_result cadmm_settings_set_islands(struct cadmm_settings *s, bool on);
+
+/**
+ * Threads that solve islands side by side (default 1: every island on the calling
+ * thread, and the library starts no thread at all). With `n > 1`, each
+ * `cadmm_solver_solve` of a problem with several islands starts up to `n` threads and
+ * joins them before it returns (no pool is kept); an engine that owns its threads keeps
+ * 1 and runs separate solvers on its own threads instead. The solution does not depend on
+ * `n`. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (0, or above 256).
+ */
+cadmm_result cadmm_settings_set_threads(struct cadmm_settings *s, size_t n);
+
+/**
  * Creates a solver: validates the settings, picks the first rho and factorizes (symbolic
  * analysis and first numeric factorization). The problem and the settings are copied;
  * both may be freed or changed afterwards.
@@ -620,6 +655,17 @@ cadmm_result cadmm_solver_get_joint_multipliers(const struct cadmm_solver *sv,
  * `CADMM_ERR_INVALID_VALUE` (`struct_size` too small; nothing is written).
  */
 cadmm_result cadmm_solver_get_stats(const struct cadmm_solver *sv, struct cadmm_stats *out);
+
+/**
+ * Fills `*out` with the statistics of island `index` in the last solve (`0 <= index <
+ * islands` of `cadmm_solver_get_stats`; islands are ordered by their first contact; an
+ * island's `error` is by its own measure). Set `out->struct_size` first, as for
+ * `cadmm_solver_get_stats`. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE`
+ * (`struct_size` too small, or no such island; nothing is written).
+ */
+cadmm_result cadmm_solver_get_island_stats(const struct cadmm_solver *sv,
+                                           size_t index,
+                                           struct cadmm_stats *out);
 
 /**
  * Number of points in the trace of the last solve (0 unless the trace was switched on

@@ -103,6 +103,10 @@ pub enum Status {
     /// The method stopped making progress before the tolerance (only the `newton` variant,
     /// which has no ADMM to fall back on); its best iterate is kept.
     Stalled = 4,
+    /// No impulse can satisfy some contact: its columns of the contact Jacobian are empty,
+    /// so no velocity moves it, and its fixed relative velocity `w` approaches (global form,
+    /// docs/algorithms.md §12). The other contacts are solved as far as the statistics say.
+    Infeasible = 5,
 }
 
 impl Status {
@@ -114,6 +118,7 @@ impl Status {
             Status::TimeLimit => "time_limit",
             Status::NumericalError => "numerical_error",
             Status::Stalled => "stalled",
+            Status::Infeasible => "infeasible",
         }
     }
 }

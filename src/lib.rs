@@ -25,6 +25,7 @@
 pub mod admm;
 mod cone;
 mod contact;
+mod coupled;
 mod csc;
 mod error;
 #[cfg(feature = "fclib")]
@@ -32,6 +33,7 @@ pub mod fclib;
 /// The C API (`include/cadmm.h`): opaque handles, result codes, panic boundary. From Rust,
 /// use the types re-exported at the crate root instead.
 pub mod ffi;
+mod islands;
 mod linsys;
 pub mod measure;
 /// Semismooth Newton (Alart-Curnier) phase.

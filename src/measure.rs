@@ -44,6 +44,28 @@ fn all_finite(x: &[f64]) -> bool {
     x.iter().all(|v| v.is_finite())
 }
 
+/// Lower bounds on the measure's denominators. An island of a scene (docs/algorithms.md
+/// §12) is measured with floors taken from the whole problem's scales, so that it is
+/// judged by its share of the whole problem's measure instead of by its own, often much
+/// smaller, scale. All zero (no floor) for a problem solved as it is.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Floors {
+    /// Global: equation term (`max(||f||, ||M v||, ||H r + G lambda||)`); local: `||q||`.
+    pub equation: f64,
+    /// Global: complementarity term (`max(||u||, ||r||)`).
+    pub contact: f64,
+    /// Global: joint term (`max(||G^T v||, ||b||)`).
+    pub joint: f64,
+}
+
+/// The denominators of the global measure at a solution (before any floor).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Scales {
+    pub equation: f64,
+    pub contact: f64,
+    pub joint: f64,
+}
+
 /// Work vectors of the measure, sized once for one problem's dimensions.
 #[derive(Debug, Clone, Default)]
 pub struct MeasureWork {
@@ -51,6 +73,9 @@ pub struct MeasureWork {
     hr: Vec<f64>,
     u: Vec<f64>,
     gv: Vec<f64>,
+    pub(crate) floors: Floors,
+    /// The denominators of the last global evaluation.
+    pub(crate) scales: Scales,
 }
 
 impl MeasureWork {
@@ -117,19 +142,23 @@ pub fn global_error_with(
             .zip(&j.b)
             .map(|(a, b)| (a + b) * (a + b))
             .sum();
-        joint_error = relative(res.sqrt(), scale);
+        work.scales.joint = scale;
+        joint_error = relative(res.sqrt(), scale.max(work.floors.joint));
     }
     let mut eq = 0.0;
     for i in 0..p.n() {
         eq += (-work.mv[i] + work.hr[i] + p.f[i]).powi(2);
     }
     let scale = norm2(&p.f).max(norm2(&work.mv)).max(norm2(&work.hr));
-    let e1 = relative(eq.sqrt(), scale);
+    work.scales.equation = scale;
+    let e1 = relative(eq.sqrt(), scale.max(work.floors.equation));
     work.u.copy_from_slice(&p.w);
     p.h.mul_t_vec(1.0, v, 1.0, &mut work.u);
+    let scale = norm2(&work.u).max(norm2(r));
+    work.scales.contact = scale;
     let e2 = relative(
         complementarity_residual(r, &work.u, &p.mu),
-        norm2(&work.u).max(norm2(r)),
+        scale.max(work.floors.contact),
     );
     finite_or_infinite(e1 + e2 + joint_error)
 }
@@ -180,7 +209,7 @@ pub fn local_error_with(p: &LocalProblem, r: &[f64], work: &mut MeasureWork) -> 
     p.w.mul_vec(1.0, r, 1.0, &mut work.u);
     finite_or_infinite(relative(
         complementarity_residual(r, &work.u, &p.mu),
-        norm2(&p.q),
+        norm2(&p.q).max(work.floors.equation),
     ))
 }
 

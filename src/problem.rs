@@ -171,7 +171,96 @@ impl GlobalProblem {
     }
 }
 
+impl GlobalProblem {
+    /// Takes new values on the same sizes and patterns (`None` keeps a value). Everything
+    /// is checked before anything changes; no allocation.
+    pub(crate) fn set_values(&mut self, v: &NewValues) -> Result<(), Error> {
+        if v.delassus.is_some() || v.q.is_some() {
+            return Err(Error::Unsupported(
+                "update_values: W and q belong to a local problem, the solver holds a global one"
+                    .into(),
+            ));
+        }
+        let (n, m) = (self.n(), self.w.len());
+        for (field, x, len) in [("f", v.f, n), ("w", v.w, m)] {
+            if let Some(x) = x {
+                check_len(field, x, len)?;
+            }
+        }
+        if let Some(x) = v.mu {
+            check_mu(x, self.mu.len())?;
+        }
+        if let Some(x) = v.m {
+            self.m.check_values("M", x)?;
+        }
+        if let Some(x) = v.h {
+            self.h.check_values("H", x)?;
+        }
+        match (&self.joints, v.g, v.b) {
+            (None, None, None) => {}
+            (None, _, _) => {
+                return Err(Error::Unsupported(
+                    "update_values: G or b given, but the problem has no joints".into(),
+                ))
+            }
+            (Some(j), g, b) => {
+                if let Some(g) = g {
+                    j.g.check_values("G", g)?;
+                }
+                if let Some(b) = b {
+                    check_len("b", b, j.b.len())?;
+                }
+            }
+        }
+        let set = |dst: &mut CscMatrix, field, src: Option<&[f64]>| match src {
+            Some(src) => dst.set_values(field, src),
+            None => Ok(()),
+        };
+        set(&mut self.m, "M", v.m)?;
+        set(&mut self.h, "H", v.h)?;
+        if let Some(j) = &mut self.joints {
+            set(&mut j.g, "G", v.g)?;
+            if let Some(b) = v.b {
+                j.b.copy_from_slice(b);
+            }
+        }
+        for (dst, src) in [(&mut self.f, v.f), (&mut self.w, v.w), (&mut self.mu, v.mu)] {
+            if let Some(src) = src {
+                dst.copy_from_slice(src);
+            }
+        }
+        Ok(())
+    }
+}
+
 impl LocalProblem {
+    /// Takes new values on the same sizes and pattern (`None` keeps a value). Everything
+    /// is checked before anything changes; no allocation.
+    pub(crate) fn set_values(&mut self, v: &NewValues) -> Result<(), Error> {
+        if [v.m, v.h, v.g, v.f, v.w, v.b].iter().any(Option::is_some) {
+            return Err(Error::Unsupported(
+                "update_values: M, H, G, f, w and b belong to a global problem, the solver \
+                 holds a local one"
+                    .into(),
+            ));
+        }
+        if let Some(x) = v.q {
+            check_len("q", x, self.q.len())?;
+        }
+        if let Some(x) = v.mu {
+            check_mu(x, self.mu.len())?;
+        }
+        if let Some(x) = v.delassus {
+            self.w.set_values("W", x)?;
+        }
+        for (dst, src) in [(&mut self.q, v.q), (&mut self.mu, v.mu)] {
+            if let Some(src) = src {
+                dst.copy_from_slice(src);
+            }
+        }
+        Ok(())
+    }
+
     /// Validates and builds a local problem with `nc = mu.len()`.
     pub fn new(w: CscMatrix, q: Vec<f64>, mu: Vec<f64>) -> Result<Self, Error> {
         let nc = mu.len();
@@ -207,6 +296,86 @@ impl Problem {
         match self {
             Problem::Global(g) => g.n(),
             Problem::Local(_) => 0,
+        }
+    }
+    /// The uncoupled union of problems of one form: block-diagonal M, H, G (global) or W
+    /// (local), the vectors one after the other. A scene of separate piles is such a
+    /// problem; a solver finds the blocks again as islands.
+    pub fn block_diagonal(parts: &[Problem]) -> Result<Problem, Error> {
+        fn stack<'a>(
+            field: &'static str,
+            blocks: impl Iterator<Item = &'a CscMatrix>,
+        ) -> Result<CscMatrix, Error> {
+            let (mut nrows, mut colptr, mut rowind, mut values) = (0, vec![0], vec![], vec![]);
+            for b in blocks {
+                for j in 0..b.ncols() {
+                    for (i, x) in b.col(j) {
+                        rowind.push(nrows + i);
+                        values.push(x);
+                    }
+                    colptr.push(rowind.len());
+                }
+                nrows += b.nrows();
+            }
+            let ncols = colptr.len() - 1;
+            CscMatrix::new(field, nrows, ncols, colptr, rowind, values)
+        }
+        let concat = |x: &mut dyn Iterator<Item = &Vec<f64>>| x.flatten().copied().collect();
+        let globals: Vec<&GlobalProblem> = parts
+            .iter()
+            .filter_map(|p| match p {
+                Problem::Global(g) => Some(g),
+                Problem::Local(_) => None,
+            })
+            .collect();
+        if globals.len() == parts.len() && !parts.is_empty() {
+            let with_joints = globals.iter().any(|g| g.joints.is_some());
+            let empty = |n: usize| CscMatrix::new("G", n, 0, vec![0], vec![], vec![]);
+            let joints = globals
+                .iter()
+                .map(|g| match &g.joints {
+                    Some(j) => Ok((j.g.clone(), j.b.clone())),
+                    None => empty(g.n()).map(|e| (e, Vec::new())),
+                })
+                .collect::<Result<Vec<_>, Error>>()?;
+            let p = GlobalProblem::new(
+                stack("M", globals.iter().map(|g| &g.m))?,
+                stack("H", globals.iter().map(|g| &g.h))?,
+                concat(&mut globals.iter().map(|g| &g.f)),
+                concat(&mut globals.iter().map(|g| &g.w)),
+                concat(&mut globals.iter().map(|g| &g.mu)),
+            )?;
+            if !with_joints {
+                return Ok(Problem::Global(p));
+            }
+            let g = stack("G", joints.iter().map(|j| &j.0))?;
+            let b = concat(&mut joints.iter().map(|j| &j.1));
+            return Ok(Problem::Global(p.with_joints(g, b)?));
+        }
+        let locals: Vec<&LocalProblem> = parts
+            .iter()
+            .filter_map(|p| match p {
+                Problem::Local(l) => Some(l),
+                Problem::Global(_) => None,
+            })
+            .collect();
+        if locals.len() != parts.len() || parts.is_empty() {
+            return Err(Error::Unsupported(
+                "block_diagonal: the problems must be one or more of the same form".into(),
+            ));
+        }
+        Ok(Problem::Local(LocalProblem::new(
+            stack("W", locals.iter().map(|l| &l.w))?,
+            concat(&mut locals.iter().map(|l| &l.q)),
+            concat(&mut locals.iter().map(|l| &l.mu)),
+        )?))
+    }
+
+    /// Takes new values on the same sizes and patterns (see [`NewValues`]).
+    pub(crate) fn set_values(&mut self, v: &NewValues) -> Result<(), Error> {
+        match self {
+            Problem::Global(g) => g.set_values(v),
+            Problem::Local(l) => l.set_values(v),
         }
     }
     /// True when the two problems have the same sizes and sparsity patterns, so a solver

@@ -65,6 +65,13 @@ pub struct Settings {
     /// Finish with the semismooth Newton phase; `None`: the variant's default (on for
     /// `auto`, off for the named ADMM variants, which then run as published).
     pub newton_polish: Option<bool>,
+    /// Split the problem into its contact islands and solve each on its own
+    /// (docs/algorithms.md §12). Default on.
+    pub islands: bool,
+    /// Threads that solve islands side by side: 1 (the default) solves them one after the
+    /// other on the caller's thread; more starts that many scoped threads for each solve
+    /// that has several islands (no pool is kept). The results do not depend on it.
+    pub threads: usize,
 }
 
 impl Default for Settings {
@@ -80,6 +87,8 @@ impl Default for Settings {
             anderson_interval: 1,
             trace: false,
             newton_polish: None,
+            islands: true,
+            threads: 1,
         }
     }
 }
@@ -116,6 +125,13 @@ pub const FINISH_WITHIN: usize = 200;
 /// steps from ADMM's handover, so caps of 50 or 100 failed phases that were about to
 /// converge (FCLib set at 1e-8: 8.2 s in all with 50, 6.7 s with 200, 5.2 s with 400).
 pub const NEWTON_MAX_STEPS: usize = 400;
+
+/// Most island threads one solve may start.
+pub const MAX_THREADS: usize = 256;
+
+/// Rounds in which islands are solved again to a tighter tolerance when their assembled
+/// solution misses the whole problem's tolerance (docs/algorithms.md §12).
+pub const ISLAND_ROUNDS: usize = 4;
 
 /// rho stays within `[rho0 / RHO_RANGE, rho0 * RHO_RANGE]`: beyond that the factorization of
 /// `M + rho H H^T` (or `W + rho I`) loses the other term to round-off.
@@ -171,6 +187,12 @@ impl Settings {
                     format!("a given rho must be positive and finite, got {r}"),
                 );
             }
+        }
+        if self.threads == 0 || self.threads > MAX_THREADS {
+            return bad(
+                "threads",
+                format!("must be between 1 and {MAX_THREADS}, got {}", self.threads),
+            );
         }
         if self.anderson_interval == 0 {
             return bad("anderson_interval", "must be at least 1".into());

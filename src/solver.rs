@@ -1,14 +1,20 @@
-//! The public solver: a problem's form, its settings and the last iterate. Everything that
-//! depends on the form lives in the form itself ([`crate::contact::ContactForm`]).
+//! The public solver. A scene is split into its contact islands (docs/algorithms.md §12),
+//! each solved by its own [`CoupledSolver`] (its own rho, stopping test, factorization and
+//! warm start); velocities no contact reaches are solved once, without contacts. A problem
+//! that is one island is solved as it is, with no copy.
 
-use crate::admm::{self, EngineState};
-use crate::contact::{contact_form, initial_rho, ContactForm};
+use crate::coupled::CoupledSolver;
 use crate::error::{Error, Status};
-use crate::newton::{FailReason, NewtonStatus};
+use crate::islands::{
+    contact_rows, gather, partition_global, partition_local, Part, Partition, ValueBuffers,
+    EVERY_FIELD,
+};
+use crate::measure::{global_error_with, local_error_with, Floors, MeasureWork, Scales};
 use crate::problem::{NewValues, Problem};
-use crate::settings::{NewtonUse, Resolved, Settings, NEWTON_MAX_STEPS};
-use crate::stats::{Phase, Stats, TracePoint};
-use std::time::{Duration, Instant};
+use crate::settings::{Resolved, Settings, ISLAND_ROUNDS};
+use crate::stats::{Stats, TracePoint};
+use std::sync::Mutex;
+use std::time::Instant;
 
 /// A solution of either form. `v` and `lambda` are empty for a local problem.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -27,47 +33,182 @@ pub struct Solution {
 pub struct Solver {
     settings: Settings,
     resolved: Resolved,
-    form: Box<dyn ContactForm>,
-    rho0: f64,
-    state: EngineState,
-    warm: bool,
+    layout: Layout,
+    stats: Stats,
+    island_stats: Vec<Stats>,
+}
+
+/// How the problem is held.
+enum Layout {
+    /// As one coupled problem (islands off, or one island).
+    Whole(Box<CoupledSolver>),
+    /// As islands.
+    Split(Box<Split>),
+}
+
+/// A problem split into islands.
+struct Split {
+    /// The whole problem: new values land here first, and the assembled solution is
+    /// measured on it.
+    whole: Problem,
+    /// The contact islands, then the contact-free part (global form) when there is one.
+    parts: Vec<PartSolver>,
+    /// Contact islands among `parts` (the first ones).
+    n_islands: usize,
+    /// Contacts no velocity moves (see [`Partition::bodiless`]).
+    bodiless: Vec<usize>,
+    measure: MeasureWork,
+    /// The whole problem's scales known before solving: `||f||`, `||b||` (local: `||q||`).
+    known_scales: Scales,
+    /// The part whose trace and residuals the solver reports (the one that needed the
+    /// most iterations in the last solve; none without parts).
+    slowest: Option<usize>,
+}
+
+/// One part and its solver.
+struct PartSolver {
+    part: Part,
+    solver: CoupledSolver,
+    values: ValueBuffers,
+    /// Warm-start buffers.
+    r: Vec<f64>,
+    v: Vec<f64>,
+    /// The part's share of the whole problem's velocities, contacts and joints (the
+    /// square of the factor applied to the whole's scales in its measure floors).
+    share: [f64; 3],
+    /// Tolerance of the part in the current round, and the outcome of its last solve.
+    tolerance: f64,
+    outcome: Result<Status, Error>,
+    /// Statistics and trace of the current solve, summed over its rounds.
     stats: Stats,
     trace: Vec<TracePoint>,
 }
 
+impl PartSolver {
+    fn new(mut part: Part, whole: &Problem, settings: &Settings) -> Result<Self, Error> {
+        let (problem, global) = match whole {
+            Problem::Global(g) => (Problem::Global(part.global_problem(g)?), true),
+            Problem::Local(l) => (Problem::Local(part.local_problem(l)?), false),
+        };
+        let solver = CoupledSolver::new(problem, settings.clone())?;
+        let fraction = |k: usize, total: usize| k as f64 / total.max(1) as f64;
+        let share = match whole {
+            Problem::Global(g) => [
+                fraction(part.velocities.len(), g.n()),
+                fraction(part.contacts.len(), g.n_contacts()),
+                fraction(
+                    part.joints.len(),
+                    g.joints.as_ref().map_or(0, |j| j.b.len()),
+                ),
+            ],
+            Problem::Local(l) => {
+                let c = fraction(part.contacts.len(), l.n_contacts());
+                [c, c, 0.0]
+            }
+        };
+        Ok(Self {
+            share,
+            stats: Stats::default(),
+            trace: Vec::new(),
+            values: ValueBuffers::new(&part, global),
+            r: vec![0.0; 3 * part.contacts.len()],
+            v: vec![0.0; solver.n_velocities()],
+            solver,
+            part,
+            tolerance: settings.tolerance,
+            outcome: Ok(Status::MaxIterations),
+        })
+    }
+
+    /// Floors of the part's measure: its share of the whole problem's scales.
+    fn set_floors(&mut self, whole: Scales) {
+        let [velocities, contacts, joints] = self.share.map(f64::sqrt);
+        self.solver.set_measure_floors(Floors {
+            equation: whole.equation * velocities,
+            contact: whole.contact * contacts,
+            joint: whole.joint * joints,
+        });
+    }
+
+    /// Solves with the part's tolerance and what is left of the time limit, and adds the
+    /// solve to the part's statistics and trace.
+    fn solve(&mut self, t0: Instant, time_limit: f64) {
+        let started = t0.elapsed().as_secs_f64();
+        let time_left = time_limit - started;
+        self.outcome = if time_left <= 0.0 {
+            Ok(Status::TimeLimit)
+        } else {
+            self.solver.set_limits(self.tolerance, time_left);
+            self.solver.solve()
+        };
+        let s = self.solver.stats();
+        let offset = self.stats.iterations;
+        self.trace
+            .extend(self.solver.trace().iter().map(|t| TracePoint {
+                iteration: t.iteration + offset,
+                seconds: t.seconds + started,
+                ..*t
+            }));
+        let total = &mut self.stats;
+        *total = Stats {
+            iterations: total.iterations + s.iterations,
+            refactorizations: s.refactorizations,
+            anderson_accepted: total.anderson_accepted + s.anderson_accepted,
+            anderson_rejected: total.anderson_rejected + s.anderson_rejected,
+            newton_iterations: total.newton_iterations + s.newton_iterations,
+            newton_factorizations: total.newton_factorizations + s.newton_factorizations,
+            newton_phases: total.newton_phases + s.newton_phases,
+            newton_fallbacks: total.newton_fallbacks + s.newton_fallbacks,
+            solve_seconds: total.solve_seconds + s.solve_seconds,
+            ..*s
+        };
+    }
+
+    /// Starts a new solve's statistics.
+    fn reset(&mut self) {
+        self.stats = Stats {
+            setup_seconds: self.solver.stats().setup_seconds,
+            ..Stats::default()
+        };
+        self.trace.clear();
+    }
+}
+
 impl Solver {
-    /// Validates the settings, picks the first rho, and factorizes (symbolic analysis and
-    /// the first numeric factorization).
+    /// Validates the settings, finds the contact islands (unless switched off), picks each
+    /// island's first rho and factorizes (symbolic analysis and first numeric
+    /// factorization).
     pub fn new(problem: Problem, settings: Settings) -> Result<Self, Error> {
         let t0 = Instant::now();
         settings.validate()?;
-        let resolved = settings.resolved();
-        let rho0 = initial_rho(resolved.initial_rho, &problem)?;
-        let l = 3 * problem.n_contacts();
-        let mut form = contact_form(problem)?;
-        form.set_rho(rho0)?;
-        let state = EngineState {
-            y: vec![0.0; l],
-            zeta: vec![0.0; l],
-            ax: vec![0.0; l],
-            rho: rho0,
+        let partition = match (&problem, settings.islands) {
+            (_, false) => None,
+            (Problem::Global(g), true) => Some(partition_global(g)),
+            (Problem::Local(l), true) => Some(partition_local(l)),
         };
-        let stats = Stats {
-            setup_seconds: t0.elapsed().as_secs_f64(),
-            rho: rho0,
-            refactorizations: form.refactorizations(),
-            ..Default::default()
+        let (layout, n_islands) = match partition {
+            Some(p) if !p.is_whole() => {
+                let split = Split::new(problem, p, &settings)?;
+                let n = split.n_islands;
+                (Layout::Split(Box::new(split)), n)
+            }
+            _ => {
+                let islands = usize::from(problem.n_contacts() > 0);
+                let solver = CoupledSolver::new(problem, settings.clone())?;
+                (Layout::Whole(Box::new(solver)), islands)
+            }
         };
-        Ok(Self {
+        let mut solver = Self {
+            resolved: settings.resolved(),
             settings,
-            resolved,
-            form,
-            rho0,
-            state,
-            warm: false,
-            stats,
-            trace: Vec::new(),
-        })
+            layout,
+            stats: Stats::default(),
+            island_stats: Vec::new(),
+        };
+        solver.stats.islands = n_islands;
+        solver.collect_stats(Status::MaxIterations, f64::INFINITY, 0.0);
+        solver.stats.setup_seconds = t0.elapsed().as_secs_f64();
+        Ok(solver)
     }
 
     /// The settings.
@@ -84,182 +225,120 @@ impl Solver {
     /// time step of a simulation): numeric refactorization only, through the same path as
     /// [`Solver::update_values`].
     pub fn update(&mut self, problem: Problem) -> Result<(), Error> {
-        self.form.update(problem)?;
-        self.form.set_rho(self.rho0)?;
-        self.warm = false;
-        Ok(())
+        match &mut self.layout {
+            Layout::Whole(s) => s.update(problem),
+            Layout::Split(split) => split.update(problem),
+        }
     }
 
     /// Takes new values for the problem on the same sizes and sparsity patterns (the next
     /// time step of a scene), without building a problem: they are scattered into the kept
-    /// system matrix through maps built once, then one numeric refactorization; no sorting,
-    /// no allocation (except when a symmetric matrix stops being symmetric, which rebuilds
-    /// the system for LU). Every value is checked before any is taken; M is refactorized on
-    /// its own to check it is positive definite, and after a failed factorization the
-    /// solver keeps failing until an update succeeds. The next solve starts
-    /// cold unless [`Solver::warm_start`] is called after this.
+    /// system matrices through maps built once, then one numeric refactorization per
+    /// island; no sorting, no allocation (except when a symmetric matrix stops being
+    /// symmetric, which rebuilds that system for LU). Every value is checked before any is
+    /// taken; M is refactorized on its own to check it is positive definite, and after a
+    /// failed factorization the solver keeps failing until an update succeeds. The next
+    /// solve starts cold unless [`Solver::warm_start`] is called after this.
     pub fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
-        self.form.update_values(values)?;
-        self.form.set_rho(self.rho0)?;
-        self.warm = false;
-        Ok(())
+        match &mut self.layout {
+            Layout::Whole(s) => s.update_values(values),
+            Layout::Split(split) => split.update_values(values),
+        }
     }
 
     /// Starts the next solve from impulses `r` (and velocities `v`, global form).
     pub fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
-        let l = self.state.y.len();
-        if r.len() != l {
-            return Err(Error::Dimension {
-                field: "r",
-                expected: l,
-                found: r.len(),
-            });
+        match &mut self.layout {
+            Layout::Whole(s) => s.warm_start(r, v),
+            Layout::Split(split) => split.warm_start(r, v),
         }
-        if let Some(index) = r.iter().position(|x| !x.is_finite()) {
-            return Err(Error::InvalidValue {
-                field: "r",
-                index,
-                reason: "not finite",
-            });
-        }
-        self.state.rho = self.rho0;
-        self.form.warm_start(r, v, &mut self.state)?;
-        self.warm = true;
-        Ok(())
     }
 
-    /// Runs the solve: ADMM, finished by the semismooth Newton phase when the settings ask
-    /// for it (docs/algorithms.md §9). Without a preceding [`Solver::warm_start`], starts
-    /// from zero.
+    /// Runs the solve: on each island, ADMM finished by the semismooth Newton phase when
+    /// the settings ask for it (docs/algorithms.md §9). Without a preceding
+    /// [`Solver::warm_start`], starts from zero. With islands, the status is `Solved` only
+    /// when the assembled solution meets the tolerance by the whole problem's measure.
     pub fn solve(&mut self) -> Result<Status, Error> {
         let t0 = Instant::now();
-        if !self.warm {
-            self.state.rho = self.rho0;
-            self.form.cold_start(&mut self.state);
-        }
-        self.warm = false;
-        let mut set = self.settings.engine_settings(&self.resolved);
-        let deadline =
-            t0.checked_add(Duration::try_from_secs_f64(set.time_limit).unwrap_or(Duration::MAX));
-        let mut stats = Stats {
-            setup_seconds: self.stats.setup_seconds,
-            ..Default::default()
+        let (status, error) = match &mut self.layout {
+            Layout::Whole(s) => {
+                let status = s.solve()?;
+                (status, s.stats().error)
+            }
+            Layout::Split(split) => split.solve(&self.settings, t0)?,
         };
-        self.trace.clear();
-        let mut status = None;
-        let mut error = f64::INFINITY;
-        // ADMM and Newton phases alternate until one meets the tolerance or a limit is hit;
-        // the iteration limit counts the steps of both.
-        while status.is_none() {
-            let left = self
-                .settings
-                .max_iterations
-                .saturating_sub(stats.iterations);
-            if self.resolved.newton != NewtonUse::Alone {
-                set.max_iterations = left;
-                let out = admm::run(self.form.as_mut(), &mut self.state, &set, t0)?;
-                stats.iterations += out.iterations;
-                stats.primal_residual = out.primal;
-                stats.dual_residual = out.dual;
-                stats.anderson_accepted += out.aa_accepted;
-                stats.anderson_rejected += out.aa_rejected;
-                let offset = stats.iterations - out.iterations;
-                self.trace.extend(out.trace.into_iter().map(|mut t| {
-                    t.iteration += offset;
-                    t
-                }));
-                error = out.error;
-                status = out.status;
-                if status == Some(Status::NumericalError) {
-                    // The form's own iterate comes from the step that blew up: recompute
-                    // it from the last finite iterate, which the state holds, and measure
-                    // that.
-                    self.form.recover(&self.state)?;
-                    let s = &self.state;
-                    error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
-                }
-                if !out.handed_over {
-                    break;
-                }
-            }
-            let left = self
-                .settings
-                .max_iterations
-                .saturating_sub(stats.iterations);
-            if left == 0 {
-                status = Some(Status::MaxIterations);
-                break;
-            }
-            // Newton alone may use every iteration left; as a polish, a bounded phase.
-            let steps = match self.resolved.newton {
-                NewtonUse::Alone => left,
-                _ => left.min(NEWTON_MAX_STEPS),
-            };
-            let newton =
-                self.form
-                    .polish(&mut self.state, self.settings.tolerance, steps, deadline)?;
-            stats.iterations += newton.iterations;
-            stats.newton_iterations += newton.iterations;
-            stats.newton_factorizations += newton.factorizations;
-            stats.newton_phases += 1;
-            error = error.min(newton.error);
-            if self.settings.trace {
-                self.trace.push(TracePoint {
-                    iteration: stats.iterations,
-                    seconds: t0.elapsed().as_secs_f64(),
-                    error: newton.error,
-                    primal_residual: f64::NAN,
-                    dual_residual: f64::NAN,
-                    rho: self.state.rho,
-                    anderson_accepted: stats.anderson_accepted,
-                    anderson_rejected: stats.anderson_rejected,
-                    phase: Phase::Newton,
-                });
-            }
-            if newton.converged() {
-                status = Some(Status::Solved);
-            } else if newton.status == NewtonStatus::Failed(FailReason::Deadline)
-                || t0.elapsed().as_secs_f64() > self.settings.time_limit
-            {
-                status = Some(Status::TimeLimit);
-            } else if self.resolved.newton == NewtonUse::Alone {
-                // Newton alone has nothing to fall back on.
-                status = Some(match newton.status {
-                    NewtonStatus::Failed(FailReason::MaxIterations) => Status::MaxIterations,
-                    NewtonStatus::Failed(FailReason::NonFinite) => Status::NumericalError,
-                    _ => Status::Stalled,
-                });
-            } else {
-                // Back to ADMM from Newton's best iterate, handing over again only once the
-                // error is well below where this Newton phase failed, or after a stall twice
-                // as long: Newton then costs a bounded share of the solve.
-                stats.newton_fallbacks += 1;
-                if let Some(h) = set.handover.as_mut() {
-                    h.error_below = 1e-2 * h.error_below.min(error);
-                    h.stall_checks *= 2;
-                }
-            }
-        }
-        let status = status.unwrap_or(Status::MaxIterations);
-        self.stats = Stats {
-            status,
-            error,
-            rho: self.state.rho,
-            refactorizations: self.form.refactorizations(),
-            solve_seconds: t0.elapsed().as_secs_f64(),
-            ..stats
-        };
+        self.collect_stats(status, error, t0.elapsed().as_secs_f64());
         Ok(status)
     }
 
-    /// The current solution (the last finite iterate).
+    /// Gathers the statistics of the last solve from the islands.
+    fn collect_stats(&mut self, status: Status, error: f64, seconds: f64) {
+        let (islands, setup) = (self.stats.islands, self.stats.setup_seconds);
+        match &self.layout {
+            Layout::Whole(s) => {
+                self.stats = *s.stats();
+                self.island_stats.clear();
+                if islands > 0 {
+                    self.island_stats.push(Stats {
+                        islands,
+                        ..self.stats
+                    });
+                }
+            }
+            Layout::Split(split) => {
+                self.island_stats.clear();
+                self.island_stats
+                    .extend(split.parts[..split.n_islands].iter().map(|p| p.stats));
+                let parts = split.parts.iter().map(|p| &p.stats);
+                let none = Stats::default();
+                let slowest = split.slowest.map_or(&none, |k| &split.parts[k].stats);
+                let mut stats = Stats {
+                    iterations: slowest.iterations,
+                    primal_residual: slowest.primal_residual,
+                    dual_residual: slowest.dual_residual,
+                    rho: slowest.rho,
+                    ..Stats::default()
+                };
+                for p in parts {
+                    stats.refactorizations += p.refactorizations;
+                    stats.anderson_accepted += p.anderson_accepted;
+                    stats.anderson_rejected += p.anderson_rejected;
+                    stats.newton_iterations += p.newton_iterations;
+                    stats.newton_factorizations += p.newton_factorizations;
+                    stats.newton_phases += p.newton_phases;
+                    stats.newton_fallbacks += p.newton_fallbacks;
+                }
+                stats.failed_island = (status != Status::Solved)
+                    .then(|| {
+                        self.island_stats
+                            .iter()
+                            .position(|s| s.status != Status::Solved)
+                    })
+                    .flatten();
+                self.stats = stats;
+            }
+        }
+        self.stats.status = status;
+        self.stats.error = error;
+        self.stats.solve_seconds = seconds;
+        self.stats.islands = islands;
+        self.stats.setup_seconds = setup;
+    }
+
+    /// The current solution (the last finite iterate), assembled from the islands.
     pub fn solution(&self) -> Solution {
-        self.form.solution(&self.state)
+        match &self.layout {
+            Layout::Whole(s) => s.solution(),
+            Layout::Split(split) => split.assemble(),
+        }
     }
 
     /// Length of `v` (0 for a local problem).
     pub fn n_velocities(&self) -> usize {
-        self.form.n_velocities()
+        match &self.layout {
+            Layout::Whole(s) => s.n_velocities(),
+            Layout::Split(split) => split.whole.n_velocities(),
+        }
     }
 
     /// Statistics of the last solve.
@@ -267,8 +346,264 @@ impl Solver {
         &self.stats
     }
 
-    /// Per-iteration trace of the last solve (empty unless `Settings::trace`).
+    /// Statistics of each contact island in the last solve, ordered by the islands' first
+    /// contacts (one entry when the problem was solved whole; each island's `error` is by
+    /// its own measure).
+    pub fn island_stats(&self) -> &[Stats] {
+        &self.island_stats
+    }
+
+    /// Per-iteration trace of the last solve (empty unless `Settings::trace`); with several
+    /// islands, the trace of the island that needed the most iterations.
     pub fn trace(&self) -> &[TracePoint] {
-        &self.trace
+        match &self.layout {
+            Layout::Whole(s) => s.trace(),
+            Layout::Split(split) => split.slowest.map_or(&[][..], |k| &split.parts[k].trace),
+        }
+    }
+}
+
+impl Split {
+    fn new(whole: Problem, partition: Partition, settings: &Settings) -> Result<Self, Error> {
+        let Partition {
+            islands,
+            free,
+            bodiless,
+        } = partition;
+        let n_islands = islands.len();
+        let parts = islands
+            .into_iter()
+            .chain(free)
+            .map(|part| PartSolver::new(part, &whole, settings))
+            .collect::<Result<Vec<_>, _>>()?;
+        let measure = match &whole {
+            Problem::Global(g) => MeasureWork::global(g),
+            Problem::Local(l) => MeasureWork::local(l),
+        };
+        let known_scales = match &whole {
+            Problem::Global(g) => Scales {
+                equation: crate::csc::norm2(&g.f),
+                contact: 0.0,
+                joint: g.joints.as_ref().map_or(0.0, |j| crate::csc::norm2(&j.b)),
+            },
+            Problem::Local(l) => Scales {
+                equation: crate::csc::norm2(&l.q),
+                ..Scales::default()
+            },
+        };
+        Ok(Self {
+            known_scales,
+            whole,
+            parts,
+            n_islands,
+            bodiless,
+            measure,
+            slowest: None,
+        })
+    }
+
+    fn update(&mut self, problem: Problem) -> Result<(), Error> {
+        if !self.whole.same_pattern(&problem) {
+            return Err(match (&self.whole, &problem) {
+                (Problem::Global(_), Problem::Local(_))
+                | (Problem::Local(_), Problem::Global(_)) => Error::Unsupported(
+                    "update: the new problem is of the other form than the solver's".into(),
+                ),
+                _ => Error::InvalidCsc {
+                    field: "M, H, G or W",
+                    reason: "the sizes or the sparsity pattern differ from the ones the solver \
+                             was built for"
+                        .into(),
+                },
+            });
+        }
+        self.whole = problem;
+        self.distribute(&EVERY_FIELD)
+    }
+
+    fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
+        self.whole.set_values(values)?;
+        self.distribute(values)
+    }
+
+    /// Hands each part its share of the whole problem's values for the fields `given`
+    /// names. Every part is updated even when one fails, and the first error is returned.
+    fn distribute(&mut self, given: &NewValues) -> Result<(), Error> {
+        let mut first_error = Ok(());
+        for p in &mut self.parts {
+            let share = match &self.whole {
+                Problem::Global(g) => p.values.global(&p.part, g, given),
+                Problem::Local(l) => p.values.local(&p.part, l, given),
+            };
+            let done = p.solver.update_values(&share);
+            if first_error.is_ok() {
+                first_error = done;
+            }
+        }
+        first_error
+    }
+
+    fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
+        let l = 3 * self.whole.n_contacts();
+        if r.len() != l {
+            return Err(Error::Dimension {
+                field: "r",
+                expected: l,
+                found: r.len(),
+            });
+        }
+        if let Some(v) = v {
+            crate::problem::check_len("v", v, self.whole.n_velocities())?;
+        }
+        for p in &mut self.parts {
+            gather(r, contact_rows(&p.part.contacts), &mut p.r);
+            if let Some(v) = v {
+                gather(v, p.part.velocities.iter().copied(), &mut p.v);
+            }
+            p.solver.warm_start(&p.r, v.map(|_| p.v.as_slice()))?;
+        }
+        Ok(())
+    }
+
+    /// Solves the parts, assembles, measures the whole problem. Each island is measured
+    /// with floors at its share of the whole problem's scales (docs/algorithms.md §12):
+    /// first those known before solving (`||f||`, `||b||`; local: `||q||`), then, when the
+    /// assembled solution misses the tolerance, those of that solution, and the islands
+    /// are solved again, warm, to a tolerance tightened in proportion.
+    fn solve(&mut self, settings: &Settings, t0: Instant) -> Result<(Status, f64), Error> {
+        let tol = settings.tolerance;
+        let mut pending: Vec<bool> = vec![true; self.parts.len()];
+        for p in &mut self.parts {
+            p.tolerance = tol;
+            p.reset();
+            p.set_floors(self.known_scales);
+        }
+        let mut error = f64::INFINITY;
+        for round in 0..ISLAND_ROUNDS {
+            self.solve_parts(&pending, settings, t0);
+            if let Some(Err(e)) = self.parts.iter().map(|p| &p.outcome).find(|o| o.is_err()) {
+                return Err(e.clone());
+            }
+            error = self.whole_error();
+            let all_solved = self
+                .parts
+                .iter()
+                .all(|p| matches!(p.outcome, Ok(Status::Solved)));
+            if error <= tol || !all_solved || round + 1 == ISLAND_ROUNDS {
+                break;
+            }
+            let scales = self.measure.scales;
+            let factor = (tol / error).min(0.5);
+            for (p, again) in self.parts.iter_mut().zip(&mut pending) {
+                // The contact-free part is solved exactly already.
+                *again = !p.part.contacts.is_empty();
+                if *again {
+                    p.tolerance *= factor;
+                    p.set_floors(scales);
+                    let s = p.solver.solution();
+                    let v = (!s.v.is_empty()).then_some(s.v.as_slice());
+                    p.solver.warm_start(&s.r, v)?;
+                }
+            }
+        }
+        self.slowest = (0..self.parts.len()).max_by_key(|&k| self.parts[k].stats.iterations);
+        let status = if error <= tol {
+            Status::Solved
+        } else if let Some(p) = self.parts.iter().find(|p| p.stats.status != Status::Solved) {
+            p.stats.status
+        } else if !self.bodiless_satisfied(tol) {
+            Status::Infeasible
+        } else {
+            Status::MaxIterations
+        };
+        Ok((status, error))
+    }
+
+    /// Solves the pending parts, on `threads` scoped threads when several are pending. The
+    /// parts are independent, so the results do not depend on the threads.
+    fn solve_parts(&mut self, pending: &[bool], settings: &Settings, t0: Instant) {
+        let limit = settings.time_limit;
+        let mut todo: Vec<&mut PartSolver> = self
+            .parts
+            .iter_mut()
+            .zip(pending)
+            .filter_map(|(p, &again)| again.then_some(p))
+            .collect();
+        let threads = settings.threads.min(todo.len());
+        if threads <= 1 {
+            todo.into_iter().for_each(|p| p.solve(t0, limit));
+            return;
+        }
+        // Largest parts first, so that the last one taken is a small one.
+        todo.sort_by_key(|p| std::cmp::Reverse(p.part.contacts.len() + p.part.velocities.len()));
+        let queue = Mutex::new(todo.into_iter());
+        std::thread::scope(|scope| {
+            for _ in 0..threads {
+                scope.spawn(|| loop {
+                    let next = queue.lock().map(|mut q| q.next());
+                    match next {
+                        Ok(Some(p)) => p.solve(t0, limit),
+                        _ => break,
+                    }
+                });
+            }
+        });
+    }
+
+    /// True when every bodiless contact is satisfied by `r = 0` (its fixed `w` does not
+    /// approach), to the tolerance.
+    fn bodiless_satisfied(&self, tol: f64) -> bool {
+        let Problem::Global(g) = &self.whole else {
+            return true;
+        };
+        self.bodiless.iter().all(|&c| {
+            let u = [g.w[3 * c], g.w[3 * c + 1], g.w[3 * c + 2]];
+            let scale = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+            crate::measure::complementarity_residual(&[0.0; 3], &u, &[g.mu[c]]) <= tol * scale
+        })
+    }
+
+    /// The solution of the whole problem from the parts' (bodiless contacts: `r = 0`,
+    /// `u = w`).
+    fn assemble(&self) -> Solution {
+        let (n, m) = (self.whole.n_velocities(), 3 * self.whole.n_contacts());
+        let np = match &self.whole {
+            Problem::Global(g) => g.joints.as_ref().map_or(0, |j| j.b.len()),
+            Problem::Local(_) => 0,
+        };
+        let mut out = Solution {
+            r: vec![0.0; m],
+            u: vec![0.0; m],
+            v: vec![0.0; n],
+            lambda: vec![0.0; np],
+        };
+        if let Problem::Global(g) = &self.whole {
+            for &c in &self.bodiless {
+                out.u[3 * c..3 * c + 3].copy_from_slice(&g.w[3 * c..3 * c + 3]);
+            }
+        }
+        for p in &self.parts {
+            let s = p.solver.solution();
+            for (k, i) in contact_rows(&p.part.contacts).enumerate() {
+                out.r[i] = s.r[k];
+                out.u[i] = s.u[k];
+            }
+            for (k, &i) in p.part.velocities.iter().enumerate() {
+                out.v[i] = s.v[k];
+            }
+            for (k, &i) in p.part.joints.iter().enumerate() {
+                out.lambda[i] = s.lambda[k];
+            }
+        }
+        out
+    }
+
+    /// The whole problem's error measure at the assembled solution.
+    fn whole_error(&mut self) -> f64 {
+        let s = self.assemble();
+        match &self.whole {
+            Problem::Global(g) => global_error_with(g, &s.r, &s.v, &s.lambda, &mut self.measure),
+            Problem::Local(l) => local_error_with(l, &s.r, &mut self.measure),
+        }
     }
 }

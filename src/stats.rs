@@ -7,7 +7,9 @@ use crate::error::Status;
 pub struct Stats {
     /// Outcome.
     pub status: Status,
-    /// Iterations done: ADMM iterations and semismooth Newton steps.
+    /// Iterations done: ADMM iterations and semismooth Newton steps (with several islands,
+    /// those of the island that needed the most; the residuals and rho are that island's,
+    /// the counts of factorizations, Anderson and Newton steps are summed over islands).
     pub iterations: usize,
     /// Final error measure (docs/algorithms.md §3).
     pub error: f64,
@@ -33,6 +35,12 @@ pub struct Stats {
     pub newton_fallbacks: usize,
     /// Seconds spent building the solver (symbolic and first numeric factorization).
     pub setup_seconds: f64,
+    /// Contact islands the problem was solved as (1 when islands are off or the problem
+    /// is one coupled island; 0 without contacts).
+    pub islands: usize,
+    /// The first island (in [`crate::Solver::island_stats`] order) that ended unsolved,
+    /// when the solve is not solved because of one.
+    pub failed_island: Option<usize>,
     /// Seconds spent in the last solve.
     pub solve_seconds: f64,
 }
@@ -54,6 +62,8 @@ impl Default for Stats {
             newton_phases: 0,
             newton_fallbacks: 0,
             setup_seconds: 0.0,
+            islands: 0,
+            failed_island: None,
             solve_seconds: 0.0,
         }
     }

@@ -8,13 +8,23 @@ use cadmm::{CscMatrix, GlobalProblem, LocalProblem, NewValues, Problem, Settings
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// Counts allocations of this test binary.
+/// Counts the allocations of the thread that asked for it (`COUNTING`): the other tests of
+/// this binary run on other threads at the same time.
 struct Counting;
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+thread_local! {
+    static COUNTING: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+fn count() {
+    if COUNTING.with(|c| c.get()) {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+    }
+}
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        count();
         // SAFETY: forwarded.
         unsafe { System.alloc(layout) }
     }
@@ -23,7 +33,7 @@ unsafe impl GlobalAlloc for Counting {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        count();
         // SAFETY: forwarded.
         unsafe { System.realloc(ptr, layout, new_size) }
     }
@@ -247,9 +257,39 @@ fn values_path_allocates_nothing_and_refuses_bad_values() {
     // The first update may size nothing either, but measure the steady state.
     solver.update_values(&values).unwrap();
     let before = ALLOCATIONS.load(Ordering::Relaxed);
+    COUNTING.with(|c| c.set(true));
     solver.update_values(&values).unwrap();
+    COUNTING.with(|c| c.set(false));
     let during = ALLOCATIONS.load(Ordering::Relaxed) - before;
     assert_eq!(during, 0, "update_values allocated {during} times");
+
+    // The same through islands: each island's share is gathered into buffers kept since
+    // construction.
+    let pile = Problem::Global(global(&stack(5, 0.0)));
+    let scene = Problem::block_diagonal(&[pile.clone(), pile.clone(), pile]).unwrap();
+    let Problem::Global(g) = &scene else {
+        unreachable!()
+    };
+    let heavier: Vec<f64> = g.m.values().iter().map(|x| 1.1 * x).collect();
+    let scene_values = NewValues {
+        m: Some(&heavier),
+        f: Some(&g.f),
+        w: Some(&g.w),
+        ..Default::default()
+    };
+    let mut islands = Solver::new(scene.clone(), settings()).unwrap();
+    islands.solve().unwrap();
+    assert_eq!(islands.stats().islands, 3);
+    islands.update_values(&scene_values).unwrap();
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    COUNTING.with(|c| c.set(true));
+    islands.update_values(&scene_values).unwrap();
+    COUNTING.with(|c| c.set(false));
+    let during = ALLOCATIONS.load(Ordering::Relaxed) - before;
+    assert_eq!(
+        during, 0,
+        "update_values on islands allocated {during} times"
+    );
 
     // Bad values are named and change nothing: the solver still solves the last good data.
     let mut bad_mu = mu.clone();

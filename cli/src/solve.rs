@@ -37,6 +37,12 @@ pub struct SolveArgs {
     /// s update: internal or external.
     #[arg(long, default_value = "internal")]
     s_update: String,
+    /// Contact islands: on (each solved on its own) or off (the problem as one).
+    #[arg(long, default_value = "on")]
+    islands: String,
+    /// Threads that solve islands side by side.
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
     /// Write r, u, v into /solution of this HDF5 file.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -74,6 +80,16 @@ fn settings_from(a: &SolveArgs) -> Result<Settings, cadmm::Error> {
             })
         }
     };
+    let islands = match a.islands.as_str() {
+        "on" => true,
+        "off" => false,
+        other => {
+            return Err(cadmm::Error::InvalidSetting {
+                name: "islands",
+                reason: format!("expected on or off, got '{other}'"),
+            })
+        }
+    };
     let s = Settings {
         tolerance: a.tol,
         max_iterations: a.max_iter,
@@ -85,6 +101,8 @@ fn settings_from(a: &SolveArgs) -> Result<Settings, cadmm::Error> {
         anderson_interval: a.anderson_interval,
         trace: false,
         newton_polish,
+        islands,
+        threads: a.threads,
     };
     s.validate()?;
     Ok(s)
@@ -118,7 +136,7 @@ pub fn run(a: SolveArgs) -> ExitCode {
         }
         let r = solver.resolved();
         Ok(format!(
-            "{{\"file\": \"{}\", \"form\": \"{form}\", \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"seconds\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"rho\": {}, \"refactorizations\": {}, \"variant\": \"{}\", \"initial_rho\": \"{}\", \"anderson\": {}, \"anderson_accepted\": {}, \"anderson_rejected\": {}, \"newton\": \"{:?}\", \"newton_iterations\": {}, \"newton_factorizations\": {}, \"newton_phases\": {}, \"newton_fallbacks\": {}}}",
+            "{{\"file\": \"{}\", \"form\": \"{form}\", \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"seconds\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"rho\": {}, \"refactorizations\": {}, \"variant\": \"{}\", \"initial_rho\": \"{}\", \"anderson\": {}, \"anderson_accepted\": {}, \"anderson_rejected\": {}, \"newton\": \"{:?}\", \"newton_iterations\": {}, \"newton_factorizations\": {}, \"newton_phases\": {}, \"newton_fallbacks\": {}, \"islands\": {}}}",
             file.display().to_string().replace('\\', "\\\\").replace('"', "\\\""),
             status.name(),
             st.iterations,
@@ -138,6 +156,7 @@ pub fn run(a: SolveArgs) -> ExitCode {
             st.newton_factorizations,
             st.newton_phases,
             st.newton_fallbacks,
+            st.islands,
         ))
     };
     match run() {

@@ -4,14 +4,14 @@
 //! quasi-definite system `[[M + rho H H^T, G], [G^T, -delta I]] [v; -lambda] = [.; -b]`
 //! (delta tiny, corrected by one step of iterative refinement).
 
-use super::{check_mu, check_vector, de_saxce_shift, initial_shift, ContactForm, NewValues};
+use super::{check_vector, de_saxce_shift, initial_shift, ContactForm, NewValues};
 use crate::admm::{EngineState, Splitting};
 use crate::cone::{get3, project_dual_cone, set3};
-use crate::csc::{norm2, CscMatrix};
+use crate::csc::norm2;
 use crate::error::Error;
 use crate::linsys::param_matrix::{gram_triplets, triplets, Assembly};
 use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
-use crate::measure::{global_error_with, MeasureWork};
+use crate::measure::{global_error_with, Floors, MeasureWork};
 use crate::newton::{GlobalNewton, NewtonOutcome};
 use crate::problem::{GlobalProblem, Problem};
 use crate::solver::Solution;
@@ -306,63 +306,7 @@ impl ContactForm for GlobalSplitting {
     }
 
     fn update_values(&mut self, v: &NewValues) -> Result<(), Error> {
-        if v.delassus.is_some() || v.q.is_some() {
-            return Err(Error::Unsupported(
-                "update_values: W and q belong to a local problem, the solver holds a global one"
-                    .into(),
-            ));
-        }
-        // Everything is checked before anything changes.
-        let p = &mut self.p;
-        let (n, m) = (p.n(), p.w.len());
-        let vectors = [("f", v.f, n), ("w", v.w, m)];
-        for (field, x, len) in vectors {
-            if let Some(x) = x {
-                check_vector(field, x, len)?;
-            }
-        }
-        if let Some(x) = v.mu {
-            check_mu(x, p.mu.len())?;
-        }
-        if let Some(x) = v.m {
-            p.m.check_values("M", x)?;
-        }
-        if let Some(x) = v.h {
-            p.h.check_values("H", x)?;
-        }
-        match (&p.joints, v.g, v.b) {
-            (None, None, None) => {}
-            (None, _, _) => {
-                return Err(Error::Unsupported(
-                    "update_values: G or b given, but the problem has no joints".into(),
-                ))
-            }
-            (Some(j), g, b) => {
-                if let Some(g) = g {
-                    j.g.check_values("G", g)?;
-                }
-                if let Some(b) = b {
-                    check_vector("b", b, j.b.len())?;
-                }
-            }
-        }
-        let set = |dst: &mut CscMatrix, field, src: Option<&[f64]>| match src {
-            Some(src) => dst.set_values(field, src),
-            None => Ok(()),
-        };
-        set(&mut p.m, "M", v.m)?;
-        set(&mut p.h, "H", v.h)?;
-        if let Some(j) = &mut p.joints {
-            set(&mut j.g, "G", v.g)?;
-            if let Some(b) = v.b {
-                j.b.copy_from_slice(b);
-            }
-        }
-        for (dst, src) in [(&mut p.f, v.f), (&mut p.w, v.w), (&mut p.mu, v.mu)] {
-            if let Some(src) = src {
-                dst.copy_from_slice(src);
-            }
-        }
+        self.p.set_values(v)?;
         self.take_values()
     }
 
@@ -377,6 +321,27 @@ impl ContactForm for GlobalSplitting {
         // starts from it).
         self.sol.fill(0.0);
         self.reset_shift();
+    }
+
+    fn separating(&mut self, state: &mut EngineState) -> bool {
+        // The free velocity M^-1 f costs one solve with the factor of M kept for the
+        // update check, which is M itself when M is symmetric; joints would need the
+        // constrained system.
+        if self.p.joints.is_some() || self.m_mirror.is_none() {
+            return false;
+        }
+        let n = self.p.n();
+        let v = &mut self.sol[..n];
+        v.copy_from_slice(&self.p.f);
+        self.mass.solve_in_place(v);
+        self.work_m.copy_from_slice(&self.p.w);
+        self.p.h.mul_t_vec(1.0, v, 1.0, &mut self.work_m);
+        if !(0..self.p.n_contacts()).all(|i| self.work_m[3 * i] >= 0.0) {
+            return false;
+        }
+        state.zeta.fill(0.0);
+        state.y.fill(0.0);
+        true
     }
 
     fn warm_start(
@@ -435,6 +400,13 @@ impl ContactForm for GlobalSplitting {
         Solution { r, u, v, lambda }
     }
 
+    fn set_measure_floors(&mut self, floors: Floors) {
+        self.measure.floors = floors;
+        if let Some(newton) = &mut self.newton {
+            newton.set_measure_floors(floors);
+        }
+    }
+
     fn refactorizations(&self) -> usize {
         self.factor.refactorizations() + self.mass.refactorizations()
     }
@@ -454,7 +426,9 @@ impl ContactForm for GlobalSplitting {
         } = self.solution(state);
         let start = global_error_with(&self.p, &r, &v, &lambda, &mut self.measure);
         if self.newton.is_none() {
-            self.newton = Some(GlobalNewton::new(&self.p)?);
+            let mut newton = GlobalNewton::new(&self.p)?;
+            newton.set_measure_floors(self.measure.floors);
+            self.newton = Some(newton);
         }
         let newton = self.newton.as_mut().expect("built above");
         let out = newton.solve(

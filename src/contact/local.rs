@@ -3,14 +3,14 @@
 //! x-update: `(W + rho I) x = -(q + Phi(s)) + rho (z - zeta)`, by Cholesky when W is
 //! symmetric (up to round-off), by LU otherwise.
 
-use super::{check_mu, check_vector, de_saxce_shift, initial_shift, ContactForm};
+use super::{de_saxce_shift, initial_shift, ContactForm};
 use crate::admm::{EngineState, Splitting};
 use crate::cone::{de_saxce, get3, project_cone, set3};
 use crate::csc::norm2;
 use crate::error::Error;
 use crate::linsys::param_matrix::{triplets, Assembly};
 use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
-use crate::measure::{local_error_with, MeasureWork};
+use crate::measure::{local_error_with, Floors, MeasureWork};
 use crate::newton::{LocalNewton, NewtonOutcome};
 use crate::problem::{same_matrix_pattern, LocalProblem, NewValues, Problem};
 use crate::solver::Solution;
@@ -194,28 +194,7 @@ impl ContactForm for LocalSplitting {
     }
 
     fn update_values(&mut self, v: &NewValues) -> Result<(), Error> {
-        if [v.m, v.h, v.g, v.f, v.w, v.b].iter().any(Option::is_some) {
-            return Err(Error::Unsupported(
-                "update_values: M, H, G, f, w and b belong to a global problem, the solver \
-                 holds a local one"
-                    .into(),
-            ));
-        }
-        let p = &mut self.p;
-        if let Some(x) = v.q {
-            check_vector("q", x, p.q.len())?;
-        }
-        if let Some(x) = v.mu {
-            check_mu(x, p.mu.len())?;
-        }
-        if let Some(x) = v.delassus {
-            p.w.set_values("W", x)?;
-        }
-        for (dst, src) in [(&mut p.q, v.q), (&mut p.mu, v.mu)] {
-            if let Some(src) = src {
-                dst.copy_from_slice(src);
-            }
-        }
+        self.p.set_values(v)?;
         self.take_values()
     }
 
@@ -227,6 +206,15 @@ impl ContactForm for LocalSplitting {
         state.y.fill(0.0);
         state.zeta.fill(0.0);
         self.reset_shift();
+    }
+
+    fn separating(&mut self, state: &mut EngineState) -> bool {
+        if !(0..self.p.n_contacts()).all(|i| self.p.q[3 * i] >= 0.0) {
+            return false;
+        }
+        state.zeta.fill(0.0);
+        state.y.fill(0.0);
+        true
     }
 
     fn warm_start(
@@ -270,6 +258,13 @@ impl ContactForm for LocalSplitting {
         }
     }
 
+    fn set_measure_floors(&mut self, floors: Floors) {
+        self.measure.floors = floors;
+        if let Some(newton) = &mut self.newton {
+            newton.set_measure_floors(floors);
+        }
+    }
+
     fn refactorizations(&self) -> usize {
         self.factor.refactorizations()
     }
@@ -284,7 +279,9 @@ impl ContactForm for LocalSplitting {
         let mut r = state.y.clone();
         let start = local_error_with(&self.p, &r, &mut self.measure);
         if self.newton.is_none() {
-            self.newton = Some(LocalNewton::new(&self.p)?);
+            let mut newton = LocalNewton::new(&self.p)?;
+            newton.set_measure_floors(self.measure.floors);
+            self.newton = Some(newton);
         }
         let newton = self.newton.as_mut().expect("built above");
         let out = newton.solve(&self.p, &mut r, tol, max_steps, deadline)?;

@@ -15,6 +15,7 @@ pub(crate) use local::LocalSplitting;
 use crate::admm::{EngineState, Splitting};
 use crate::cone::{de_saxce_term, get3, set3};
 use crate::error::Error;
+use crate::measure::Floors;
 use crate::newton::NewtonOutcome;
 use crate::problem::{NewValues, Problem};
 use crate::solver::Solution;
@@ -22,7 +23,7 @@ use std::time::Instant;
 
 /// A contact problem form as the solver drives it: the engine's [`Splitting`] plus what
 /// the solver needs around a solve.
-pub(crate) trait ContactForm: Splitting {
+pub(crate) trait ContactForm: Splitting + Send {
     /// Takes new values on the same sizes and patterns (numeric refactorization only);
     /// a problem of the other form or other sizes is an error.
     fn update(&mut self, p: Problem) -> Result<(), Error>;
@@ -33,6 +34,12 @@ pub(crate) trait ContactForm: Splitting {
     fn n_velocities(&self) -> usize;
     /// Cold start: zero iterate, initial De Saxce shift.
     fn cold_start(&mut self, state: &mut EngineState);
+    /// The short cut of a problem whose contacts all separate under the free motion: when
+    /// the free velocity (`r = 0`) has a non-negative normal component at every contact,
+    /// `r = 0` solves the problem exactly; this makes it the iterate and returns true (no
+    /// contact, in particular). Otherwise returns false and leaves the engine state alone.
+    /// A form that cannot afford the free velocity says false.
+    fn separating(&mut self, state: &mut EngineState) -> bool;
     /// Warm start from impulses `r` (finite, checked) and, global form only, velocities
     /// `v` (checked here).
     fn warm_start(
@@ -46,6 +53,9 @@ pub(crate) trait ContactForm: Splitting {
     fn recover(&mut self, state: &EngineState) -> Result<(), Error>;
     /// The solution at the engine state.
     fn solution(&self, state: &EngineState) -> Solution;
+    /// Floors of the error measure's denominators (an island's share of a scene's measure,
+    /// docs/algorithms.md §12), for ADMM and the Newton phase alike.
+    fn set_measure_floors(&mut self, floors: Floors);
     /// Numeric factorizations so far.
     fn refactorizations(&self) -> usize;
     /// The Newton phase from the iterate in `state`: when it ends below the error of its
@@ -96,4 +106,3 @@ fn initial_shift(mu: &[f64], frobenius: f64, phi: &mut [f64]) {
 
 /// Rejects a vector of the wrong length or with a non-finite entry.
 pub(crate) use crate::problem::check_len as check_vector;
-pub(crate) use crate::problem::check_mu;

@@ -47,6 +47,9 @@ pub const CADMM_STATUS_NUMERICAL_ERROR: cadmm_status = 3;
 /// The method stopped making progress before the tolerance (only the "newton" variant,
 /// which has no ADMM to fall back on); the solution is its best iterate.
 pub const CADMM_STATUS_STALLED: cadmm_status = 4;
+/// No impulse can satisfy some contact: its columns of H are empty, so no velocity moves
+/// it, and its fixed relative velocity `w` approaches.
+pub const CADMM_STATUS_INFEASIBLE: cadmm_status = 5;
 
 /// The C status code of a [`Status`].
 pub(crate) fn status_code(s: Status) -> cadmm_status {
@@ -56,6 +59,7 @@ pub(crate) fn status_code(s: Status) -> cadmm_status {
         Status::TimeLimit => CADMM_STATUS_TIME_LIMIT,
         Status::NumericalError => CADMM_STATUS_NUMERICAL_ERROR,
         Status::Stalled => CADMM_STATUS_STALLED,
+        Status::Infeasible => CADMM_STATUS_INFEASIBLE,
     }
 }
 

@@ -269,3 +269,42 @@ pub(crate) unsafe fn settings_ref<'a>(
     // SAFETY: a live handle by contract.
     Ok(unsafe { &(*s).inner })
 }
+
+/// Switches contact islands on or off (default on): with islands, the problem is split into
+/// the connected parts of its coupling graph (bodies, contacts, joints; the blocks of W in
+/// the local form), each solved on its own with its own penalty, stopping test and
+/// factorization, and velocities no contact reaches get `v = M^-1 f` (docs/algorithms.md
+/// §12). Errors: `CADMM_ERR_NULL_POINTER`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_islands(
+    s: *mut cadmm_settings,
+    on: bool,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            set.islands = on;
+            Ok(())
+        })
+    }
+}
+
+/// Threads that solve islands side by side (default 1: every island on the calling
+/// thread, and the library starts no thread at all). With `n > 1`, each
+/// `cadmm_solver_solve` of a problem with several islands starts up to `n` threads and
+/// joins them before it returns (no pool is kept); an engine that owns its threads keeps
+/// 1 and runs separate solvers on its own threads instead. The solution does not depend on
+/// `n`. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (0, or above 256).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_threads(
+    s: *mut cadmm_settings,
+    n: usize,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            set.threads = n;
+            Ok(())
+        })
+    }
+}

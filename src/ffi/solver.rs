@@ -474,6 +474,46 @@ pub unsafe extern "C" fn cadmm_solver_get_stats(
     unsafe { with_solver(sv, body) }
 }
 
+/// Fills `*out` with the statistics of island `index` in the last solve (`0 <= index <
+/// islands` of `cadmm_solver_get_stats`; islands are ordered by their first contact; an
+/// island's `error` is by its own measure). Set `out->struct_size` first, as for
+/// `cadmm_solver_get_stats`. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE`
+/// (`struct_size` too small, or no such island; nothing is written).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_get_island_stats(
+    sv: *const cadmm_solver,
+    index: usize,
+    out: *mut cadmm_stats,
+) -> cadmm_result {
+    let body = |sv: &cadmm_solver| -> FfiResult {
+        check_ptr("out", out.cast_const())?;
+        // SAFETY: non-NULL and aligned; `struct_size` is the first field.
+        let size = out.cast::<usize>().read();
+        if size < STATS_MIN_SIZE {
+            return Err(Failure::new(
+                CADMM_ERR_INVALID_VALUE,
+                format!(
+                    "out->struct_size = {size} is smaller than the {STATS_MIN_SIZE} bytes \
+                     required (set it to sizeof(cadmm_stats))"
+                ),
+            ));
+        }
+        let islands = sv.solver.island_stats();
+        let Some(island) = islands.get(index) else {
+            return Err(Failure::new(
+                CADMM_ERR_INVALID_VALUE,
+                format!("island {index} does not exist ({} islands)", islands.len()),
+            ));
+        };
+        let stats = cadmm_stats::from(island);
+        // SAFETY: the caller's struct holds `size` bytes by contract.
+        write_stats(out, size, &stats);
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver(sv, body) }
+}
+
 /// Number of points in the trace of the last solve (0 unless the trace was switched on
 /// with `cadmm_settings_set_trace`; 0 for a NULL or unusable solver).
 #[no_mangle]

@@ -48,6 +48,12 @@ pub struct cadmm_stats {
     pub newton_phases: u64,
     /// Newton phases that ended above the tolerance, after which ADMM resumed.
     pub newton_fallbacks: u64,
+    /// Contact islands the problem was solved as (1 when islands are off or the problem is
+    /// one island, 0 without contacts); read each with `cadmm_solver_get_island_stats`.
+    pub islands: u64,
+    /// The first island that ended unsolved when the solve is not solved because of one,
+    /// otherwise -1.
+    pub failed_island: i64,
 }
 
 /// Smallest `struct_size` accepted: the fields up to and including `solve_seconds`.
@@ -72,6 +78,8 @@ impl From<&Stats> for cadmm_stats {
             newton_factorizations: s.newton_factorizations as u64,
             newton_phases: s.newton_phases as u64,
             newton_fallbacks: s.newton_fallbacks as u64,
+            islands: s.islands as u64,
+            failed_island: s.failed_island.map_or(-1, |k| k as i64),
         }
     }
 }
@@ -116,7 +124,9 @@ pub(crate) unsafe fn write_stats(dst: *mut cadmm_stats, size: usize, src: &cadmm
         newton_iterations,
         newton_factorizations,
         newton_phases,
-        newton_fallbacks
+        newton_fallbacks,
+        islands,
+        failed_island
     );
 }
 

@@ -123,6 +123,11 @@ impl LocalNewton {
 
     /// Recomputes `rho_i = 1 / ||W_ii||_F` from the values of `p` (same pattern as at
     /// construction). No allocation.
+    /// Floors of the error measure (an island's share of a scene's measure).
+    pub fn set_measure_floors(&mut self, floors: crate::measure::Floors) {
+        self.measure.floors = floors;
+    }
+
     pub fn take_values(&mut self, p: &LocalProblem) {
         for (i, rho) in self.rho.iter_mut().enumerate() {
             *rho = rho_from_block(&diag_block(&p.w, i));

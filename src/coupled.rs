@@ -1,0 +1,288 @@
+//! The solver of one coupled problem (one island of a scene, or a whole scene when islands
+//! are off): a problem's form, its settings and the last iterate. Everything that depends
+//! on the form lives in the form itself ([`crate::contact::ContactForm`]).
+
+use crate::admm::{self, EngineState};
+use crate::contact::{contact_form, initial_rho, ContactForm};
+use crate::error::{Error, Status};
+use crate::measure::Floors;
+use crate::newton::{FailReason, NewtonStatus};
+use crate::problem::{NewValues, Problem};
+use crate::settings::{NewtonUse, Resolved, Settings, NEWTON_MAX_STEPS};
+use crate::solver::Solution;
+use crate::stats::{Phase, Stats, TracePoint};
+use std::time::{Duration, Instant};
+
+/// Solves one coupled frictional contact problem, and its successors with the same pattern.
+pub(crate) struct CoupledSolver {
+    settings: Settings,
+    resolved: Resolved,
+    form: Box<dyn ContactForm>,
+    rho0: f64,
+    state: EngineState,
+    warm: bool,
+    stats: Stats,
+    trace: Vec<TracePoint>,
+}
+
+impl CoupledSolver {
+    /// Validates the settings, picks the first rho, and factorizes (symbolic analysis and
+    /// the first numeric factorization).
+    pub(crate) fn new(problem: Problem, settings: Settings) -> Result<Self, Error> {
+        let t0 = Instant::now();
+        settings.validate()?;
+        let resolved = settings.resolved();
+        let rho0 = initial_rho(resolved.initial_rho, &problem)?;
+        let l = 3 * problem.n_contacts();
+        let mut form = contact_form(problem)?;
+        form.set_rho(rho0)?;
+        let state = EngineState {
+            y: vec![0.0; l],
+            zeta: vec![0.0; l],
+            ax: vec![0.0; l],
+            rho: rho0,
+        };
+        let stats = Stats {
+            setup_seconds: t0.elapsed().as_secs_f64(),
+            rho: rho0,
+            refactorizations: form.refactorizations(),
+            ..Default::default()
+        };
+        Ok(Self {
+            settings,
+            resolved,
+            form,
+            rho0,
+            state,
+            warm: false,
+            stats,
+            trace: Vec::new(),
+        })
+    }
+
+    /// Sets the tolerance and the time limit of the next solves (an island's share).
+    pub(crate) fn set_limits(&mut self, tolerance: f64, time_limit: f64) {
+        self.settings.tolerance = tolerance;
+        self.settings.time_limit = time_limit;
+    }
+
+    /// Floors of the error measure (an island's share of a scene's measure).
+    pub(crate) fn set_measure_floors(&mut self, floors: Floors) {
+        self.form.set_measure_floors(floors);
+    }
+
+    /// Replaces the problem by one of the same form, sizes and sparsity patterns (the next
+    /// time step of a simulation): numeric refactorization only, through the same path as
+    /// [`CoupledSolver::update_values`].
+    pub(crate) fn update(&mut self, problem: Problem) -> Result<(), Error> {
+        self.form.update(problem)?;
+        self.form.set_rho(self.rho0)?;
+        self.warm = false;
+        Ok(())
+    }
+
+    /// Takes new values for the problem on the same sizes and sparsity patterns (the next
+    /// time step of a scene), without building a problem: they are scattered into the kept
+    /// system matrix through maps built once, then one numeric refactorization; no sorting,
+    /// no allocation (except when a symmetric matrix stops being symmetric, which rebuilds
+    /// the system for LU). Every value is checked before any is taken; M is refactorized on
+    /// its own to check it is positive definite, and after a failed factorization the
+    /// solver keeps failing until an update succeeds. The next solve starts
+    /// cold unless [`CoupledSolver::warm_start`] is called after this.
+    pub(crate) fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
+        self.form.update_values(values)?;
+        self.form.set_rho(self.rho0)?;
+        self.warm = false;
+        Ok(())
+    }
+
+    /// Starts the next solve from impulses `r` (and velocities `v`, global form).
+    pub(crate) fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
+        let l = self.state.y.len();
+        if r.len() != l {
+            return Err(Error::Dimension {
+                field: "r",
+                expected: l,
+                found: r.len(),
+            });
+        }
+        if let Some(index) = r.iter().position(|x| !x.is_finite()) {
+            return Err(Error::InvalidValue {
+                field: "r",
+                index,
+                reason: "not finite",
+            });
+        }
+        self.state.rho = self.rho0;
+        self.form.warm_start(r, v, &mut self.state)?;
+        self.warm = true;
+        Ok(())
+    }
+
+    /// Runs the solve: ADMM, finished by the semismooth Newton phase when the settings ask
+    /// for it (docs/algorithms.md §9). Without a preceding [`CoupledSolver::warm_start`], starts
+    /// from zero.
+    pub(crate) fn solve(&mut self) -> Result<Status, Error> {
+        let t0 = Instant::now();
+        if self.form.separating(&mut self.state) {
+            let s = &self.state;
+            let error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
+            if error <= self.settings.tolerance {
+                self.warm = false;
+                self.trace.clear();
+                self.stats = Stats {
+                    status: Status::Solved,
+                    iterations: 0,
+                    error,
+                    primal_residual: 0.0,
+                    dual_residual: 0.0,
+                    rho: self.state.rho,
+                    refactorizations: self.form.refactorizations(),
+                    setup_seconds: self.stats.setup_seconds,
+                    solve_seconds: t0.elapsed().as_secs_f64(),
+                    ..Default::default()
+                };
+                return Ok(Status::Solved);
+            }
+            // Round-off kept r = 0 above the tolerance: solve from the start.
+            self.warm = false;
+        }
+        if !self.warm {
+            self.state.rho = self.rho0;
+            self.form.cold_start(&mut self.state);
+        }
+        self.warm = false;
+        let mut set = self.settings.engine_settings(&self.resolved);
+        let deadline =
+            t0.checked_add(Duration::try_from_secs_f64(set.time_limit).unwrap_or(Duration::MAX));
+        let mut stats = Stats {
+            setup_seconds: self.stats.setup_seconds,
+            ..Default::default()
+        };
+        self.trace.clear();
+        let mut status = None;
+        let mut error = f64::INFINITY;
+        // ADMM and Newton phases alternate until one meets the tolerance or a limit is hit;
+        // the iteration limit counts the steps of both.
+        while status.is_none() {
+            let left = self
+                .settings
+                .max_iterations
+                .saturating_sub(stats.iterations);
+            if self.resolved.newton != NewtonUse::Alone {
+                set.max_iterations = left;
+                let out = admm::run(self.form.as_mut(), &mut self.state, &set, t0)?;
+                stats.iterations += out.iterations;
+                stats.primal_residual = out.primal;
+                stats.dual_residual = out.dual;
+                stats.anderson_accepted += out.aa_accepted;
+                stats.anderson_rejected += out.aa_rejected;
+                let offset = stats.iterations - out.iterations;
+                self.trace.extend(out.trace.into_iter().map(|mut t| {
+                    t.iteration += offset;
+                    t
+                }));
+                error = out.error;
+                status = out.status;
+                if status == Some(Status::NumericalError) {
+                    // The form's own iterate comes from the step that blew up: recompute
+                    // it from the last finite iterate, which the state holds, and measure
+                    // that.
+                    self.form.recover(&self.state)?;
+                    let s = &self.state;
+                    error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
+                }
+                if !out.handed_over {
+                    break;
+                }
+            }
+            let left = self
+                .settings
+                .max_iterations
+                .saturating_sub(stats.iterations);
+            if left == 0 {
+                status = Some(Status::MaxIterations);
+                break;
+            }
+            // Newton alone may use every iteration left; as a polish, a bounded phase.
+            let steps = match self.resolved.newton {
+                NewtonUse::Alone => left,
+                _ => left.min(NEWTON_MAX_STEPS),
+            };
+            let newton =
+                self.form
+                    .polish(&mut self.state, self.settings.tolerance, steps, deadline)?;
+            stats.iterations += newton.iterations;
+            stats.newton_iterations += newton.iterations;
+            stats.newton_factorizations += newton.factorizations;
+            stats.newton_phases += 1;
+            error = error.min(newton.error);
+            if self.settings.trace {
+                self.trace.push(TracePoint {
+                    iteration: stats.iterations,
+                    seconds: t0.elapsed().as_secs_f64(),
+                    error: newton.error,
+                    primal_residual: f64::NAN,
+                    dual_residual: f64::NAN,
+                    rho: self.state.rho,
+                    anderson_accepted: stats.anderson_accepted,
+                    anderson_rejected: stats.anderson_rejected,
+                    phase: Phase::Newton,
+                });
+            }
+            if newton.converged() {
+                status = Some(Status::Solved);
+            } else if newton.status == NewtonStatus::Failed(FailReason::Deadline)
+                || t0.elapsed().as_secs_f64() > self.settings.time_limit
+            {
+                status = Some(Status::TimeLimit);
+            } else if self.resolved.newton == NewtonUse::Alone {
+                // Newton alone has nothing to fall back on.
+                status = Some(match newton.status {
+                    NewtonStatus::Failed(FailReason::MaxIterations) => Status::MaxIterations,
+                    NewtonStatus::Failed(FailReason::NonFinite) => Status::NumericalError,
+                    _ => Status::Stalled,
+                });
+            } else {
+                // Back to ADMM from Newton's best iterate, handing over again only once the
+                // error is well below where this Newton phase failed, or after a stall twice
+                // as long: Newton then costs a bounded share of the solve.
+                stats.newton_fallbacks += 1;
+                if let Some(h) = set.handover.as_mut() {
+                    h.error_below = 1e-2 * h.error_below.min(error);
+                    h.stall_checks *= 2;
+                }
+            }
+        }
+        let status = status.unwrap_or(Status::MaxIterations);
+        self.stats = Stats {
+            status,
+            error,
+            rho: self.state.rho,
+            refactorizations: self.form.refactorizations(),
+            solve_seconds: t0.elapsed().as_secs_f64(),
+            ..stats
+        };
+        Ok(status)
+    }
+
+    /// The current solution (the last finite iterate).
+    pub(crate) fn solution(&self) -> Solution {
+        self.form.solution(&self.state)
+    }
+
+    /// Length of `v` (0 for a local problem).
+    pub(crate) fn n_velocities(&self) -> usize {
+        self.form.n_velocities()
+    }
+
+    /// Statistics of the last solve.
+    pub(crate) fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    /// Per-iteration trace of the last solve (empty unless `Settings::trace`).
+    pub(crate) fn trace(&self) -> &[TracePoint] {
+        &self.trace
+    }
+}

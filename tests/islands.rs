@@ -1,0 +1,277 @@
+//! Contact islands: a scene of uncoupled piles is solved island by island, each exactly as
+//! it would be alone; the assembled solution meets the whole problem's tolerance by the
+//! independent measure of `common`; threads do not change a bit; contact-free bodies,
+//! separating contacts and contacts that touch no body are short cuts with honest statuses.
+#![cfg(feature = "fclib")]
+
+mod common;
+
+use cadmm::{
+    fclib, CscMatrix, GlobalProblem, LocalProblem, NewValues, Problem, Settings, Solution, Solver,
+    Status,
+};
+
+const TOL: f64 = 1e-8;
+
+fn read(rel: &str) -> Problem {
+    fclib::read(common::data(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
+fn solve(p: &Problem, settings: Settings) -> (Solver, Status) {
+    let mut solver = Solver::new(p.clone(), settings).unwrap();
+    let status = solver.solve().unwrap();
+    (solver, status)
+}
+
+fn independent_error(p: &Problem, s: &Solution) -> f64 {
+    common::error(p, &s.r, &s.v, &s.lambda)
+}
+
+/// Global and local problems whose copies make the test scenes (small, so that the dense
+/// independent measure stays cheap).
+const PILES: [&str; 4] = [
+    "global/GFC3D_Example1.hdf5",
+    "global/Box_Stacks-i0122-82-5.hdf5",
+    "local/Capsules-i101-404.hdf5",
+    "local/Rover1039.hdf5",
+];
+
+/// Each island of K copies is solved exactly as the copy alone: same iterations, same
+/// impulses bit for bit; the whole solution meets the tolerance by the independent measure.
+#[test]
+fn copies_solve_as_the_pile_alone() {
+    for rel in PILES {
+        let pile = read(rel);
+        let (alone, status) = solve(&pile, Settings::default());
+        assert_eq!(status, Status::Solved, "{rel} alone");
+        let one = alone.solution();
+        let k = 5;
+        let scene = Problem::block_diagonal(&vec![pile.clone(); k]).unwrap();
+        let (solver, status) = solve(&scene, Settings::default());
+        assert_eq!(status, Status::Solved, "{rel} x{k}");
+        let stats = solver.stats();
+        // A pile may itself hold several islands (boxes apart from the stack).
+        assert_eq!(stats.islands, k * alone.stats().islands, "{rel}");
+        assert_eq!(solver.island_stats().len(), stats.islands);
+        assert_eq!(stats.iterations, alone.stats().iterations, "{rel}");
+        let s = solver.solution();
+        let m = one.r.len();
+        for c in 0..k {
+            assert_eq!(s.r[c * m..(c + 1) * m], one.r[..], "{rel}: copy {c}");
+        }
+        let e = independent_error(&scene, &s);
+        assert!(e <= TOL, "{rel} x{k}: independent error {e:e}");
+        assert!(
+            (e - stats.error).abs() <= 1e-3 * e.max(1e-16),
+            "{rel}: reported {:e}, independent {e:e}",
+            stats.error
+        );
+        // Islands off: one coupled problem, solved too (another path to the same answer).
+        let off = Settings {
+            islands: false,
+            ..Settings::default()
+        };
+        let (whole, status) = solve(&scene, off);
+        assert_eq!(status, Status::Solved, "{rel} x{k}, islands off");
+        assert_eq!(whole.stats().islands, 1);
+        assert!(independent_error(&scene, &whole.solution()) <= TOL);
+    }
+}
+
+/// Different piles side by side, on 1, 2 and 8 threads: bitwise identical solutions.
+#[test]
+fn threads_do_not_change_a_bit() {
+    for rels in [&PILES[..2], &PILES[2..]] {
+        let parts: Vec<Problem> = rels.iter().chain(rels).map(|r| read(r)).collect();
+        let scene = Problem::block_diagonal(&parts).unwrap();
+        let mut reference = None;
+        for threads in [1, 2, 8] {
+            let settings = Settings {
+                threads,
+                ..Settings::default()
+            };
+            let (solver, status) = solve(&scene, settings);
+            assert_eq!(status, Status::Solved);
+            let s = solver.solution();
+            let bits: Vec<u64> = s.r.iter().chain(&s.v).map(|x| x.to_bits()).collect();
+            match &reference {
+                None => reference = Some(bits),
+                Some(b) => assert_eq!(&bits, b, "{threads} threads"),
+            }
+        }
+    }
+}
+
+/// One island that cannot finish within the iteration limit among easy ones: the status
+/// says so, and names the island.
+#[test]
+fn a_failing_island_makes_the_status() {
+    let easy = read("global/GFC3D_Example1.hdf5");
+    let hard = read("global/Box_Stacks-i1000-547-14.hdf5");
+    let scene = Problem::block_diagonal(&[easy.clone(), hard, easy]).unwrap();
+    let settings = Settings {
+        max_iterations: 100,
+        ..Settings::default()
+    };
+    let (solver, status) = solve(&scene, settings);
+    assert_eq!(status, Status::MaxIterations);
+    let stats = solver.stats();
+    assert_eq!(stats.failed_island, Some(1));
+    let islands = solver.island_stats();
+    assert_eq!(islands[0].status, Status::Solved);
+    assert_eq!(islands[1].status, Status::MaxIterations);
+    let e = independent_error(&scene, &solver.solution());
+    assert!(e > TOL && e.is_finite(), "independent error {e:e}");
+}
+
+/// Unit masses: body 0 rests on the ground (one contact), body 1 floats free, body 2
+/// hovers above the ground moving up (its contact separates). `M = I` (9 x 9).
+fn free_and_separating_scene(w_separating: f64) -> GlobalProblem {
+    let h = CscMatrix::from_triplets(
+        "H",
+        9,
+        6,
+        &[
+            (0, 0, 1.0),
+            (1, 1, 1.0),
+            (2, 2, 1.0),
+            (6, 3, 1.0),
+            (7, 4, 1.0),
+            (8, 5, 1.0),
+        ],
+    )
+    .unwrap();
+    let f = vec![-9.81, 0.5, 0.0, 1.0, 2.0, 3.0, 4.0, 0.0, 0.0];
+    GlobalProblem::new(
+        CscMatrix::identity(9),
+        h,
+        f,
+        vec![0.0, 0.0, 0.0, w_separating, 0.0, 0.0],
+        vec![0.3, 0.3],
+    )
+    .unwrap()
+}
+
+#[test]
+fn free_bodies_and_separating_contacts_cost_nothing() {
+    let p = Problem::Global(free_and_separating_scene(0.0));
+    let (solver, status) = solve(&p, Settings::default());
+    assert_eq!(status, Status::Solved);
+    let s = solver.solution();
+    // Body 0 sticks: r = (9.81, -0.5, 0), v = 0.
+    for (a, b) in s.r[..3].iter().zip([9.81, -0.5, 0.0]) {
+        assert!((a - b).abs() <= 1e-7, "r {:?}", &s.r[..3]);
+    }
+    // Body 1 is free: v = M^-1 f. Body 2's contact separates: r = 0, v = f.
+    assert_eq!(s.v[3..6], [1.0, 2.0, 3.0]);
+    assert_eq!(s.r[3..], [0.0, 0.0, 0.0]);
+    assert_eq!(s.v[6..], [4.0, 0.0, 0.0]);
+    assert_eq!(solver.stats().islands, 2);
+    assert_eq!(solver.island_stats()[1].iterations, 0, "separating island");
+    assert!(independent_error(&p, &s) <= TOL);
+}
+
+#[test]
+fn a_scene_whose_contacts_all_separate_takes_no_iteration() {
+    let mut g = free_and_separating_scene(0.0);
+    g.f[0] = 9.81; // body 0 now moves up as well
+    let p = Problem::Global(g);
+    for islands in [true, false] {
+        let settings = Settings {
+            islands,
+            ..Settings::default()
+        };
+        let (solver, status) = solve(&p, settings);
+        assert_eq!(status, Status::Solved);
+        assert_eq!(solver.stats().iterations, 0);
+        let s = solver.solution();
+        assert!(s.r.iter().all(|&x| x == 0.0));
+        assert!(independent_error(&p, &s) <= TOL);
+    }
+    // Local form: q_N >= 0 at every contact.
+    let l = LocalProblem::new(
+        CscMatrix::identity(6),
+        vec![0.1, 5.0, 0.0, 0.0, -2.0, 1.0],
+        vec![0.5, 0.5],
+    )
+    .unwrap();
+    let p = Problem::Local(l);
+    let (solver, status) = solve(&p, Settings::default());
+    assert_eq!(status, Status::Solved);
+    assert_eq!(solver.stats().iterations, 0);
+    assert!(independent_error(&p, &solver.solution()) <= TOL);
+}
+
+/// A contact whose columns of H are empty: nothing moves it, so `u = w` whatever `r`.
+/// Approaching (`w_N < 0`) it cannot be satisfied: `Infeasible`, never `Solved`.
+#[test]
+fn a_contact_that_touches_no_body() {
+    let h = CscMatrix::from_triplets("H", 3, 6, &[(0, 0, 1.0), (1, 1, 1.0), (2, 2, 1.0)]).unwrap();
+    for (w_n, expected) in [(-8.0, Status::Infeasible), (0.5, Status::Solved)] {
+        let g = GlobalProblem::new(
+            CscMatrix::identity(3),
+            h.clone(),
+            vec![-1.0, 0.0, 0.0],
+            vec![0.0, 0.0, 0.0, w_n, 0.0, 0.0],
+            vec![0.3, 0.3],
+        )
+        .unwrap();
+        let p = Problem::Global(g);
+        let (solver, status) = solve(&p, Settings::default());
+        assert_eq!(status, expected, "w_N = {w_n}");
+        let s = solver.solution();
+        assert_eq!(s.r[3..], [0.0; 3]);
+        let e = independent_error(&p, &s);
+        assert_eq!(e <= TOL, expected == Status::Solved, "w_N = {w_n}: {e:e}");
+    }
+}
+
+/// New values through the islands (caller-order arrays scattered into each island) give
+/// the same solve as `update` with the new problem, bit for bit, and a solution of the
+/// new problem by the independent measure.
+#[test]
+fn update_values_reaches_every_island() {
+    let pile = read("global/GFC3D_Example1.hdf5");
+    let scene = Problem::block_diagonal(&[pile.clone(), pile.clone(), pile]).unwrap();
+    let Problem::Global(g) = &scene else {
+        unreachable!()
+    };
+    let mut next = g.clone();
+    for (k, x) in next.f.iter_mut().enumerate() {
+        *x *= 1.0 + 0.01 * (k % 7) as f64;
+    }
+    let h_values: Vec<f64> = g.h.values().iter().map(|x| 1.05 * x).collect();
+    next.h = CscMatrix::new(
+        "H",
+        g.h.nrows(),
+        g.h.ncols(),
+        g.h.colptr().to_vec(),
+        g.h.rowind().to_vec(),
+        h_values.clone(),
+    )
+    .unwrap();
+    let next = Problem::Global(next);
+    let (mut kept, _) = solve(&scene, Settings::default());
+    let Problem::Global(n) = &next else {
+        unreachable!()
+    };
+    kept.update_values(&NewValues {
+        f: Some(&n.f),
+        h: Some(&h_values),
+        ..NewValues::default()
+    })
+    .unwrap();
+    assert_eq!(kept.solve().unwrap(), Status::Solved);
+    assert!(independent_error(&next, &kept.solution()) <= TOL);
+    let (mut other, _) = solve(&scene, Settings::default());
+    other.update(next.clone()).unwrap();
+    assert_eq!(other.solve().unwrap(), Status::Solved);
+    let cold = other.stats().iterations;
+    assert_eq!(kept.solution(), other.solution());
+    // A warm start from the answer finishes at once.
+    let s = other.solution();
+    kept.warm_start(&s.r, Some(&s.v)).unwrap();
+    assert_eq!(kept.solve().unwrap(), Status::Solved);
+    let warm = kept.stats().iterations;
+    assert!(3 * warm < cold, "warm {warm}, cold {cold}");
+}

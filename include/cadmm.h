@@ -194,6 +194,11 @@ typedef struct cadmm_stats {
      * otherwise -1.
      */
     int64_t failed_island;
+    /**
+     * Rows of the contact space in the linear systems: `3 nc`, less two for each
+     * frictionless contact, whose tangential rows are left out.
+     */
+    uint64_t rows;
 } cadmm_stats;
 
 /**

@@ -46,6 +46,7 @@ impl CoupledSolver {
             setup_seconds: t0.elapsed().as_secs_f64(),
             rho: rho0,
             refactorizations: form.refactorizations(),
+            rows: form.rows(),
             ..Default::default()
         };
         Ok(Self {
@@ -138,6 +139,7 @@ impl CoupledSolver {
                     dual_residual: 0.0,
                     rho: self.state.rho,
                     refactorizations: self.form.refactorizations(),
+                    rows: self.form.rows(),
                     setup_seconds: self.stats.setup_seconds,
                     solve_seconds: t0.elapsed().as_secs_f64(),
                     ..Default::default()
@@ -260,6 +262,7 @@ impl CoupledSolver {
             error,
             rho: self.state.rho,
             refactorizations: self.form.refactorizations(),
+            rows: self.form.rows(),
             solve_seconds: t0.elapsed().as_secs_f64(),
             ..stats
         };

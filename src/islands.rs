@@ -187,13 +187,23 @@ pub(crate) fn partition_local(p: &LocalProblem) -> Partition {
     }
 }
 
-/// Index of each whole-problem index in a part (`usize::MAX` when outside).
-fn local_index(indices: &[usize], len: usize) -> Vec<usize> {
-    let mut local = vec![usize::MAX; len];
-    for (k, &i) in indices.iter().enumerate() {
-        local[i] = k;
+/// Where each velocity (global form) or contact row (local form) sits in its part: one map
+/// for all parts, since every index belongs to one part at most (built once, so that
+/// splitting costs the size of the problem, not that times the number of islands).
+pub(crate) fn positions(parts: &[&Part], len: usize, global: bool) -> Vec<usize> {
+    let mut at = vec![usize::MAX; len];
+    for part in parts {
+        if global {
+            for (k, &i) in part.velocities.iter().enumerate() {
+                at[i] = k;
+            }
+        } else {
+            for (k, i) in contact_rows(&part.contacts).enumerate() {
+                at[i] = k;
+            }
+        }
     }
-    local
+    at
 }
 
 /// The columns `cols` of `a`, rows renumbered by `row_of` (every row of those columns is in
@@ -235,12 +245,16 @@ pub(crate) fn gather(x: &[f64], indices: impl Iterator<Item = usize>, out: &mut 
 }
 
 impl Part {
-    /// The sub-problem of a global problem on this part; fills the entry maps.
-    pub fn global_problem(&mut self, p: &GlobalProblem) -> Result<GlobalProblem, Error> {
+    /// The sub-problem of a global problem on this part; fills the entry maps. `row_of`:
+    /// [`positions`] of the velocities.
+    pub fn global_problem(
+        &mut self,
+        p: &GlobalProblem,
+        row_of: &[usize],
+    ) -> Result<GlobalProblem, Error> {
         let nv = self.velocities.len();
-        let row_of = local_index(&self.velocities, p.n());
-        let (m, m_entries) = sub_matrix("M", &p.m, nv, self.velocities.iter().copied(), &row_of)?;
-        let (h, h_entries) = sub_matrix("H", &p.h, nv, contact_rows(&self.contacts), &row_of)?;
+        let (m, m_entries) = sub_matrix("M", &p.m, nv, self.velocities.iter().copied(), row_of)?;
+        let (h, h_entries) = sub_matrix("H", &p.h, nv, contact_rows(&self.contacts), row_of)?;
         let pick = |x: &[f64], idx: &mut dyn Iterator<Item = usize>| idx.map(|i| x[i]).collect();
         let f = pick(&p.f, &mut self.velocities.iter().copied());
         let w = pick(&p.w, &mut contact_rows(&self.contacts));
@@ -249,7 +263,7 @@ impl Part {
         self.m_entries = m_entries;
         self.h_entries = h_entries;
         if let Some(j) = &p.joints {
-            let (g, g_entries) = sub_matrix("G", &j.g, nv, self.joints.iter().copied(), &row_of)?;
+            let (g, g_entries) = sub_matrix("G", &j.g, nv, self.joints.iter().copied(), row_of)?;
             let b = pick(&j.b, &mut self.joints.iter().copied());
             sub = sub.with_joints(g, b)?;
             self.g_entries = g_entries;
@@ -257,11 +271,15 @@ impl Part {
         Ok(sub)
     }
 
-    /// The sub-problem of a local problem on this part; fills the entry map.
-    pub fn local_problem(&mut self, p: &LocalProblem) -> Result<LocalProblem, Error> {
-        let row_of = local_index(&contact_rows(&self.contacts).collect::<Vec<_>>(), p.q.len());
+    /// The sub-problem of a local problem on this part; fills the entry map. `row_of`:
+    /// [`positions`] of the contact rows.
+    pub fn local_problem(
+        &mut self,
+        p: &LocalProblem,
+        row_of: &[usize],
+    ) -> Result<LocalProblem, Error> {
         let m = 3 * self.contacts.len();
-        let (w, entries) = sub_matrix("W", &p.w, m, contact_rows(&self.contacts), &row_of)?;
+        let (w, entries) = sub_matrix("W", &p.w, m, contact_rows(&self.contacts), row_of)?;
         let q = contact_rows(&self.contacts).map(|i| p.q[i]).collect();
         let mu = self.contacts.iter().map(|&c| p.mu[c]).collect();
         self.m_entries = entries;
@@ -437,7 +455,8 @@ mod tests {
     fn a_sub_problem_holds_its_entries_and_their_origin() {
         let p = scene();
         let mut part = partition_global(&p);
-        let sub = part.islands[1].global_problem(&p).unwrap();
+        let at = positions(&[&part.islands[1]], p.n(), true);
+        let sub = part.islands[1].global_problem(&p, &at).unwrap();
         assert_eq!(sub.n(), 2);
         assert_eq!(sub.n_contacts(), 1);
         // H column 3 (contact 1's normal) has its entry at velocity 3, now velocity 0.
@@ -458,7 +477,8 @@ mod tests {
         assert_eq!(part.islands.len(), 2);
         assert_eq!(part.islands[0].contacts, vec![0, 2]);
         assert_eq!(part.islands[1].contacts, vec![1]);
-        let sub = part.islands[0].local_problem(&p).unwrap();
+        let at = positions(&[&part.islands[0]], p.q.len(), false);
+        let sub = part.islands[0].local_problem(&p, &at).unwrap();
         assert_eq!(sub.w.nrows(), 6);
         assert_eq!(sub.w.col(0).collect::<Vec<_>>(), vec![(0, 1.0), (3, 0.1)]);
     }

@@ -6,8 +6,8 @@
 use crate::coupled::CoupledSolver;
 use crate::error::{Error, Status};
 use crate::islands::{
-    contact_rows, gather, partition_global, partition_local, Part, Partition, ValueBuffers,
-    EVERY_FIELD,
+    contact_rows, gather, partition_global, partition_local, positions, Part, Partition,
+    ValueBuffers, EVERY_FIELD,
 };
 use crate::measure::{global_error_with, local_error_with, Floors, MeasureWork, Scales};
 use crate::problem::{NewValues, Problem};
@@ -85,10 +85,15 @@ struct PartSolver {
 }
 
 impl PartSolver {
-    fn new(mut part: Part, whole: &Problem, settings: &Settings) -> Result<Self, Error> {
+    fn new(
+        mut part: Part,
+        whole: &Problem,
+        row_of: &[usize],
+        settings: &Settings,
+    ) -> Result<Self, Error> {
         let (problem, global) = match whole {
-            Problem::Global(g) => (Problem::Global(part.global_problem(g)?), true),
-            Problem::Local(l) => (Problem::Local(part.local_problem(l)?), false),
+            Problem::Global(g) => (Problem::Global(part.global_problem(g, row_of)?), true),
+            Problem::Local(l) => (Problem::Local(part.local_problem(l, row_of)?), false),
         };
         let solver = CoupledSolver::new(problem, settings.clone())?;
         let fraction = |k: usize, total: usize| k as f64 / total.max(1) as f64;
@@ -162,6 +167,10 @@ impl PartSolver {
             solve_seconds: total.solve_seconds + s.solve_seconds,
             ..*s
         };
+        if let Ok(status) = self.outcome {
+            // A part the time limit left no time for did not run.
+            total.status = status;
+        }
     }
 
     /// Starts a new solve's statistics.
@@ -301,6 +310,7 @@ impl Solver {
                 };
                 for p in parts {
                     stats.refactorizations += p.refactorizations;
+                    stats.rows += p.rows;
                     stats.anderson_accepted += p.anderson_accepted;
                     stats.anderson_rejected += p.anderson_rejected;
                     stats.newton_iterations += p.newton_iterations;
@@ -371,10 +381,14 @@ impl Split {
             bodiless,
         } = partition;
         let n_islands = islands.len();
-        let parts = islands
+        let all: Vec<Part> = islands.into_iter().chain(free).collect();
+        let row_of = match &whole {
+            Problem::Global(g) => positions(&all.iter().collect::<Vec<_>>(), g.n(), true),
+            Problem::Local(l) => positions(&all.iter().collect::<Vec<_>>(), l.q.len(), false),
+        };
+        let parts = all
             .into_iter()
-            .chain(free)
-            .map(|part| PartSolver::new(part, &whole, settings))
+            .map(|part| PartSolver::new(part, &whole, &row_of, settings))
             .collect::<Result<Vec<_>, _>>()?;
         let measure = match &whole {
             Problem::Global(g) => MeasureWork::global(g),

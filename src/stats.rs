@@ -35,6 +35,9 @@ pub struct Stats {
     pub newton_fallbacks: usize,
     /// Seconds spent building the solver (symbolic and first numeric factorization).
     pub setup_seconds: f64,
+    /// Rows of the contact space in the linear systems: `3 nc`, less two for each
+    /// frictionless contact, whose tangential rows are left out (docs/algorithms.md §4).
+    pub rows: usize,
     /// Contact islands the problem was solved as (1 when islands are off or the problem
     /// is one coupled island; 0 without contacts).
     pub islands: usize,
@@ -62,6 +65,7 @@ impl Default for Stats {
             newton_phases: 0,
             newton_fallbacks: 0,
             setup_seconds: 0.0,
+            rows: 0,
             islands: 0,
             failed_island: None,
             solve_seconds: 0.0,

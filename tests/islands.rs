@@ -275,3 +275,50 @@ fn update_values_reaches_every_island() {
     let warm = kept.stats().iterations;
     assert!(3 * warm < cold, "warm {warm}, cold {cold}");
 }
+
+/// A pile with its friction coefficients set to `mu`.
+fn with_mu(p: &Problem, value: f64) -> Problem {
+    let mut p = p.clone();
+    let mu = match &mut p {
+        Problem::Global(g) => &mut g.mu,
+        Problem::Local(l) => &mut l.mu,
+    };
+    mu.fill(value);
+    p
+}
+
+/// A scene of a frictionless pile beside a frictional one: the frictionless islands carry
+/// one row per contact in their systems, and the answer is that of the three-row form (a
+/// friction coefficient of 1e-12 there, which keeps every row) to the tolerance: each
+/// answer solves the other form, by the independent measure.
+#[test]
+fn frictionless_contacts_carry_one_row() {
+    for rel in [
+        "global/Box_Stacks-i0122-82-5.hdf5",
+        "local/BoxesStack1-i100000-32.hdf5",
+        "local/Rover1039.hdf5",
+    ] {
+        let pile = read(rel);
+        let nc = pile.n_contacts();
+        let one_row = Problem::block_diagonal(&[with_mu(&pile, 0.0), pile.clone()]).unwrap();
+        let three_rows = Problem::block_diagonal(&[with_mu(&pile, 1e-12), pile.clone()]).unwrap();
+        let (a, status) = solve(&one_row, Settings::default());
+        assert_eq!(status, Status::Solved, "{rel}");
+        assert_eq!(a.stats().rows, 3 * nc + nc, "{rel}");
+        let (b, status) = solve(&three_rows, Settings::default());
+        assert_eq!(status, Status::Solved, "{rel}");
+        assert_eq!(b.stats().rows, 6 * nc, "{rel}");
+        let (sa, sb) = (a.solution(), b.solution());
+        // The frictionless impulses are normal.
+        for c in 0..nc {
+            assert_eq!(sa.r[3 * c + 1..3 * c + 3], [0.0, 0.0], "{rel}: contact {c}");
+        }
+        let errors = [
+            independent_error(&one_row, &sa),
+            independent_error(&three_rows, &sb),
+            independent_error(&three_rows, &sa),
+            independent_error(&one_row, &sb),
+        ];
+        assert!(errors.iter().all(|&e| e <= TOL), "{rel}: {errors:?}");
+    }
+}

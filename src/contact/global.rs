@@ -4,13 +4,16 @@
 //! quasi-definite system `[[M + rho H H^T, G], [G^T, -delta I]] [v; -lambda] = [.; -b]`
 //! (delta tiny, corrected by one step of iterative refinement).
 
-use super::{check_vector, de_saxce_shift, initial_shift, ContactForm, NewValues};
+use super::{
+    active_rows, check_vector, count_rows, de_saxce_shift, initial_shift, rows_missing,
+    ContactForm, NewValues,
+};
 use crate::admm::{EngineState, Splitting};
 use crate::cone::{get3, project_dual_cone, set3};
 use crate::csc::norm2;
 use crate::error::Error;
 use crate::linsys::param_matrix::{gram_triplets, triplets, Assembly};
-use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
+use crate::linsys::{Factor, FactorKind, ParamMatrix};
 use crate::measure::{global_error_with, Floors, MeasureWork};
 use crate::newton::{GlobalNewton, NewtonOutcome};
 use crate::problem::{GlobalProblem, Problem};
@@ -24,9 +27,9 @@ const JOINT_DELTA: f64 = 1e-9;
 pub struct GlobalSplitting {
     p: GlobalProblem,
     /// The symmetric part of M alone, refactorized at each update (see [`mass_factor`]).
-    mass: SparseFactor,
+    mass: Factor,
     mass_assembly: Assembly,
-    factor: SparseFactor,
+    factor: Factor,
     /// Where M, G and `H H^T` go in the system matrix (new values without re-sorting).
     assembly: Assembly,
     /// Mirror map of M when the system stores its upper triangle only (new values are
@@ -40,6 +43,9 @@ pub struct GlobalSplitting {
     phi: Vec<f64>,
     work_n: Vec<f64>,
     work_m: Vec<f64>,
+    /// 1 for the rows of the contact space in the system, 0 for the tangential rows of
+    /// frictionless contacts ([`super::active_rows`]).
+    active: Vec<f64>,
     /// Impulse and joint multipliers of the current iterate, for the error measure.
     r: Vec<f64>,
     lambda: Vec<f64>,
@@ -56,10 +62,11 @@ impl GlobalSplitting {
         let m = 3 * p.n_contacts();
         // M alone first: a clear error when M is not positive definite.
         let (mass, mass_assembly) = mass_factor(&p)?;
-        let (matrix, assembly, kind) = system_matrix(&p);
+        let active = active_rows(&p.mu);
+        let (matrix, assembly, kind) = system_matrix(&p, &active);
         let dim = matrix.n;
         let m_mirror = (kind != FactorKind::Lu).then(|| p.m.mirror_map());
-        let factor = SparseFactor::new("M + rho H H^T", matrix, kind)?;
+        let factor = Factor::new("M + rho H H^T", matrix, kind)?;
         let mut phi = vec![0.0; m];
         initial_shift(&p.mu, p.h.norm_fro(), &mut phi);
         let c = p.w.iter().zip(&phi).map(|(w, s)| -w - s).collect();
@@ -78,6 +85,7 @@ impl GlobalSplitting {
             work_n: vec![0.0; n],
             work_m: vec![0.0; m],
             r: vec![0.0; m],
+            active,
             lambda: vec![0.0; dim - n],
             measure,
             newton: None,
@@ -100,11 +108,15 @@ impl GlobalSplitting {
     /// positive definite while M is not. When M stopped being symmetric, the Cholesky
     /// system gives way to a new LU one.
     fn take_values(&mut self) -> Result<(), Error> {
-        if let Some(mirror) = &self.m_mirror {
-            if !self.p.m.is_symmetric_with(mirror) {
-                *self = Self::new(self.p.clone())?;
-                return Ok(());
-            }
+        let asymmetric = self
+            .m_mirror
+            .as_ref()
+            .is_some_and(|mirror| !self.p.m.is_symmetric_with(mirror));
+        if asymmetric || rows_missing(&self.active, &self.p.mu) {
+            let floors = self.measure.floors;
+            *self = Self::new(self.p.clone())?;
+            self.set_measure_floors(floors);
+            return Ok(());
         }
         self.mass
             .reassemble(&self.mass_assembly, mass_triplets(&self.p), []);
@@ -112,7 +124,7 @@ impl GlobalSplitting {
         self.factor.reassemble(
             &self.assembly,
             base_triplets(&self.p),
-            gram_triplets(&self.p.h),
+            gram_triplets(&self.p.h, &self.active),
         );
         self.reset_shift();
         if let Some(newton) = &mut self.newton {
@@ -149,9 +161,9 @@ fn mass_triplets(p: &GlobalProblem) -> impl Iterator<Item = (usize, usize, f64)>
 
 /// Cholesky factor of the symmetric part of M (upper triangle), kept so that every update
 /// checks M on its own: `M + rho H H^T` can be positive definite while M is not.
-fn mass_factor(p: &GlobalProblem) -> Result<(SparseFactor, Assembly), Error> {
+fn mass_factor(p: &GlobalProblem) -> Result<(Factor, Assembly), Error> {
     let (matrix, assembly) = ParamMatrix::from_triplets(p.n(), mass_triplets(p), [], true);
-    let mut mass = SparseFactor::new("M", matrix, FactorKind::Cholesky)?;
+    let mut mass = Factor::new("M", matrix, FactorKind::Cholesky)?;
     mass.set_rho(0.0)?;
     Ok((mass, assembly))
 }
@@ -171,12 +183,16 @@ fn base_triplets(p: &GlobalProblem) -> impl Iterator<Item = (usize, usize, f64)>
 /// `M + rho H H^T`, or the joint system around it: `[[M + rho H H^T, G], [G^T, -delta I]]`.
 /// Cholesky / quasi-definite LDL^T on the upper triangle when M is symmetric (up to
 /// round-off), LU on the full pattern otherwise (some FEM files carry a non-symmetric M).
-fn system_matrix(p: &GlobalProblem) -> (ParamMatrix, Assembly, FactorKind) {
+fn system_matrix(p: &GlobalProblem, active: &[f64]) -> (ParamMatrix, Assembly, FactorKind) {
     let n = p.n();
     let np = p.joints.as_ref().map_or(0, |j| j.g.ncols());
     let symmetric = p.m.is_symmetric();
-    let (matrix, assembly) =
-        ParamMatrix::from_triplets(n + np, base_triplets(p), gram_triplets(&p.h), symmetric);
+    let (matrix, assembly) = ParamMatrix::from_triplets(
+        n + np,
+        base_triplets(p),
+        gram_triplets(&p.h, active),
+        symmetric,
+    );
     let kind = match (symmetric, np) {
         (true, 0) => FactorKind::Cholesky,
         (true, _) => FactorKind::QuasiDefinite { n_positive: n },
@@ -197,7 +213,7 @@ impl Splitting for GlobalSplitting {
     fn x_step(&mut self, y: &[f64], zeta: &[f64], rho: f64, ax: &mut [f64]) {
         let n = self.p.n();
         for i in 0..self.work_m.len() {
-            self.work_m[i] = rho * (y[i] + self.c[i] - zeta[i]);
+            self.work_m[i] = self.active[i] * rho * (y[i] + self.c[i] - zeta[i]);
         }
         self.rhs[..n].copy_from_slice(&self.p.f);
         self.p.h.mul_vec(1.0, &self.work_m, 1.0, &mut self.rhs[..n]);
@@ -246,7 +262,10 @@ impl Splitting for GlobalSplitting {
     }
 
     fn norm_at(&mut self, d: &[f64]) -> f64 {
-        self.p.h.mul_vec(1.0, d, 0.0, &mut self.work_n);
+        for i in 0..d.len() {
+            self.work_m[i] = self.active[i] * d[i];
+        }
+        self.p.h.mul_vec(1.0, &self.work_m, 0.0, &mut self.work_n);
         norm2(&self.work_n)
     }
 
@@ -405,6 +424,10 @@ impl ContactForm for GlobalSplitting {
         if let Some(newton) = &mut self.newton {
             newton.set_measure_floors(floors);
         }
+    }
+
+    fn rows(&self) -> usize {
+        count_rows(&self.active)
     }
 
     fn refactorizations(&self) -> usize {

@@ -3,13 +3,13 @@
 //! x-update: `(W + rho I) x = -(q + Phi(s)) + rho (z - zeta)`, by Cholesky when W is
 //! symmetric (up to round-off), by LU otherwise.
 
-use super::{de_saxce_shift, initial_shift, ContactForm};
+use super::{active_rows, count_rows, de_saxce_shift, initial_shift, rows_missing, ContactForm};
 use crate::admm::{EngineState, Splitting};
 use crate::cone::{de_saxce, get3, project_cone, set3};
-use crate::csc::norm2;
+use crate::csc::{norm2, CscMatrix};
 use crate::error::Error;
 use crate::linsys::param_matrix::{triplets, Assembly};
-use crate::linsys::{FactorKind, ParamMatrix, SparseFactor};
+use crate::linsys::{Factor, FactorKind, ParamMatrix};
 use crate::measure::{local_error_with, Floors, MeasureWork};
 use crate::newton::{LocalNewton, NewtonOutcome};
 use crate::problem::{same_matrix_pattern, LocalProblem, NewValues, Problem};
@@ -19,7 +19,7 @@ use std::time::Instant;
 /// The local contact problem as an ADMM splitting.
 pub struct LocalSplitting {
     p: LocalProblem,
-    factor: SparseFactor,
+    factor: Factor,
     /// Where W and `I` go in the system matrix (new values without re-sorting).
     assembly: Assembly,
     /// Mirror map of W when the system stores its upper triangle only.
@@ -27,6 +27,8 @@ pub struct LocalSplitting {
     q_shift: Vec<f64>,
     phi: Vec<f64>,
     zero: Vec<f64>,
+    /// 1 for the rows in the system, 0 for the tangential rows of frictionless contacts.
+    active: Vec<f64>,
     u: Vec<f64>,
     measure: MeasureWork,
     /// The Newton phase, built on first use and kept across updates.
@@ -37,9 +39,10 @@ impl LocalSplitting {
     /// Chooses Cholesky or LU from the symmetry of W and analyses the pattern.
     pub(crate) fn new(p: LocalProblem) -> Result<Self, Error> {
         let m = p.q.len();
-        let (matrix, assembly, kind) = system_matrix(&p);
+        let active = active_rows(&p.mu);
+        let (matrix, assembly, kind) = system_matrix(&p, &active);
         let w_mirror = (kind == FactorKind::Cholesky).then(|| p.w.mirror_map());
-        let factor = SparseFactor::new("W + rho I", matrix, kind)?;
+        let factor = Factor::new("W + rho I", matrix, kind)?;
         let mut phi = vec![0.0; m];
         initial_shift(&p.mu, p.w.norm_fro(), &mut phi);
         let q_shift = p.q.iter().zip(&phi).map(|(q, s)| q + s).collect();
@@ -50,6 +53,7 @@ impl LocalSplitting {
             q_shift,
             phi,
             zero: vec![0.0; m],
+            active,
             u: vec![0.0; m],
             measure: MeasureWork::local(&p),
             newton: None,
@@ -62,15 +66,19 @@ impl LocalSplitting {
     /// refactorizes. No sorting, no allocation, except when W stopped being symmetric: the
     /// Cholesky system then gives way to a new LU one.
     fn take_values(&mut self) -> Result<(), Error> {
-        if let Some(mirror) = &self.w_mirror {
-            if !self.p.w.is_symmetric_with(mirror) {
-                *self = Self::new(self.p.clone())?;
-                return Ok(());
-            }
+        let asymmetric = self
+            .w_mirror
+            .as_ref()
+            .is_some_and(|mirror| !self.p.w.is_symmetric_with(mirror));
+        if asymmetric || rows_missing(&self.active, &self.p.mu) {
+            let floors = self.measure.floors;
+            *self = Self::new(self.p.clone())?;
+            self.set_measure_floors(floors);
+            return Ok(());
         }
         self.factor.reassemble(
             &self.assembly,
-            triplets(&self.p.w),
+            active_triplets(&self.p.w, &self.active),
             identity(self.p.q.len()),
         );
         self.reset_shift();
@@ -103,11 +111,21 @@ fn identity(m: usize) -> impl Iterator<Item = (usize, usize, f64)> {
     (0..m).map(|i| (i, i, 1.0))
 }
 
-/// `W + rho I`: Cholesky on the upper triangle when W is symmetric, LU otherwise.
-fn system_matrix(p: &LocalProblem) -> (ParamMatrix, Assembly, FactorKind) {
+/// The entries of W between rows in the system (see [`super::active_rows`]): a left-out
+/// row keeps only `rho` on its diagonal, and a zero right-hand side there gives `r_T = 0`.
+fn active_triplets<'a>(
+    w: &'a CscMatrix,
+    active: &'a [f64],
+) -> impl Iterator<Item = (usize, usize, f64)> + 'a {
+    triplets(w).filter(|&(i, j, _)| active[i] != 0.0 && active[j] != 0.0)
+}
+
+/// `W_a + rho I`: Cholesky on the upper triangle when W is symmetric, LU otherwise.
+fn system_matrix(p: &LocalProblem, active: &[f64]) -> (ParamMatrix, Assembly, FactorKind) {
     let m = p.q.len();
     let symmetric = p.w.is_symmetric();
-    let (matrix, assembly) = ParamMatrix::from_triplets(m, triplets(&p.w), identity(m), symmetric);
+    let (matrix, assembly) =
+        ParamMatrix::from_triplets(m, active_triplets(&p.w, active), identity(m), symmetric);
     let kind = if symmetric {
         FactorKind::Cholesky
     } else {
@@ -127,7 +145,7 @@ impl Splitting for LocalSplitting {
 
     fn x_step(&mut self, y: &[f64], zeta: &[f64], rho: f64, ax: &mut [f64]) {
         for i in 0..ax.len() {
-            ax[i] = -self.q_shift[i] + rho * (y[i] - zeta[i]);
+            ax[i] = self.active[i] * (-self.q_shift[i] + rho * (y[i] - zeta[i]));
         }
         self.factor.solve_in_place(ax);
     }
@@ -263,6 +281,10 @@ impl ContactForm for LocalSplitting {
         if let Some(newton) = &mut self.newton {
             newton.set_measure_floors(floors);
         }
+    }
+
+    fn rows(&self) -> usize {
+        count_rows(&self.active)
     }
 
     fn refactorizations(&self) -> usize {

@@ -56,6 +56,9 @@ pub(crate) trait ContactForm: Splitting + Send {
     /// Floors of the error measure's denominators (an island's share of a scene's measure,
     /// docs/algorithms.md §12), for ADMM and the Newton phase alike.
     fn set_measure_floors(&mut self, floors: Floors);
+    /// Rows of the contact space in the linear systems (`3 nc`, less two per frictionless
+    /// contact).
+    fn rows(&self) -> usize;
     /// Numeric factorizations so far.
     fn refactorizations(&self) -> usize;
     /// The Newton phase from the iterate in `state`: when it ends below the error of its
@@ -89,6 +92,39 @@ fn de_saxce_shift(u: &[f64], mu: &[f64], phi: &mut [f64]) -> f64 {
         set3(phi, i, [s, 0.0, 0.0]);
     }
     change.sqrt() / size.sqrt().max(f64::MIN_POSITIVE)
+}
+
+/// Which rows of the contact space take part in the linear systems, as factors 1 or 0.
+/// When every contact is frictionless (`mu = 0`), each keeps its normal row only: its
+/// impulse is normal (`K_0` is the normal half-line) and its tangential velocity is free
+/// (`K*_0` is the half-space `u_N >= 0`), so the tangential rows constrain nothing; leaving
+/// them out of `M + rho H H^T` (`W + rho I`) is exactly ADMM on the quadratic program
+/// without them, while the rows stay in the engine's vectors, where they remain inert
+/// (docs/algorithms.md §4). With frictional contacts beside them, all rows stay: without
+/// the frictionless rows' proximal term the internal De Saxce update diverged on a scene
+/// mixing mu = 0 and mu = 1e3 (extreme suite, `mixed-mu`), with every variant.
+fn active_rows(mu: &[f64]) -> Vec<f64> {
+    let tangential = if mu.iter().all(|&m| m == 0.0) {
+        0.0
+    } else {
+        1.0
+    };
+    mu.iter()
+        .flat_map(|_| [1.0, tangential, tangential])
+        .collect()
+}
+
+/// True when a contact whose tangential rows were left out is no longer frictionless:
+/// the systems must be built again with its rows.
+fn rows_missing(active: &[f64], mu: &[f64]) -> bool {
+    mu.iter()
+        .enumerate()
+        .any(|(i, &m)| m > 0.0 && active[3 * i + 1] == 0.0)
+}
+
+/// Number of rows taking part in the systems.
+fn count_rows(active: &[f64]) -> usize {
+    active.iter().filter(|&&a| a != 0.0).count()
 }
 
 /// Initial shift (docs/algorithms.md §5): `Phi(1) / (||Phi(1)|| ||A||_F)`, where `A` is `H`

@@ -54,6 +54,9 @@ pub struct cadmm_stats {
     /// The first island that ended unsolved when the solve is not solved because of one,
     /// otherwise -1.
     pub failed_island: i64,
+    /// Rows of the contact space in the linear systems: `3 nc`, less two for each
+    /// frictionless contact, whose tangential rows are left out.
+    pub rows: u64,
 }
 
 /// Smallest `struct_size` accepted: the fields up to and including `solve_seconds`.
@@ -80,6 +83,7 @@ impl From<&Stats> for cadmm_stats {
             newton_fallbacks: s.newton_fallbacks as u64,
             islands: s.islands as u64,
             failed_island: s.failed_island.map_or(-1, |k| k as i64),
+            rows: s.rows as u64,
         }
     }
 }
@@ -126,7 +130,8 @@ pub(crate) unsafe fn write_stats(dst: *mut cadmm_stats, size: usize, src: &cadmm
         newton_phases,
         newton_fallbacks,
         islands,
-        failed_island
+        failed_island,
+        rows
     );
 }
 

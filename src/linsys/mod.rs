@@ -1,11 +1,83 @@
 //! The x-update linear systems: `A(rho) = base + rho * slope` with a fixed sparsity
-//! pattern (`M + rho H H^T`, `W + rho I`, or the quasi-definite joint system), factorized
-//! with faer. The symbolic analysis (AMD ordering) is done once; a change of rho only
-//! refactorizes numerically, and the last few numeric factors are kept so that a rho rule
-//! that oscillates between two values does not refactorize back and forth.
+//! pattern (`M + rho H H^T`, `W + rho I`, or the quasi-definite joint system). Large ones
+//! are factorized with faer: the symbolic analysis (AMD ordering) is done once; a change of
+//! rho only refactorizes numerically, and the last few numeric factors are kept so that a
+//! rho rule that oscillates between two values does not refactorize back and forth. Small
+//! ones (an island of a few contacts) are factorized densely.
 
+mod dense;
 pub mod param_matrix;
 mod sparse_factor;
 
+use dense::DenseFactor;
+pub use dense::DENSE_MAX;
 pub use param_matrix::ParamMatrix;
 pub use sparse_factor::{FactorKind, SparseFactor};
+
+use crate::error::Error;
+use param_matrix::Assembly;
+
+/// The factorization of one system: dense up to [`DENSE_MAX`] unknowns, sparse above.
+pub enum Factor {
+    /// Dense, in place.
+    Dense(DenseFactor),
+    /// Sparse, with faer.
+    Sparse(SparseFactor),
+}
+
+impl Factor {
+    /// Prepares the factorization of `matrix` (`name` labels it in errors); the first
+    /// numeric factorization happens at the first [`Factor::set_rho`].
+    pub fn new(name: &'static str, matrix: ParamMatrix, kind: FactorKind) -> Result<Self, Error> {
+        Ok(if matrix.n <= DENSE_MAX {
+            Factor::Dense(DenseFactor::new(name, matrix, kind))
+        } else {
+            Factor::Sparse(SparseFactor::new(name, matrix, kind)?)
+        })
+    }
+
+    /// Number of numeric factorizations done so far.
+    pub fn refactorizations(&self) -> usize {
+        match self {
+            Factor::Dense(f) => f.refactorizations(),
+            Factor::Sparse(f) => f.refactorizations(),
+        }
+    }
+
+    /// New values on the same pattern; the next [`Factor::set_rho`] refactorizes.
+    pub fn reassemble(
+        &mut self,
+        assembly: &Assembly,
+        base: impl IntoIterator<Item = (usize, usize, f64)>,
+        slope: impl IntoIterator<Item = (usize, usize, f64)>,
+    ) {
+        match self {
+            Factor::Dense(f) => f.reassemble(assembly, base, slope),
+            Factor::Sparse(f) => f.reassemble(assembly, base, slope),
+        }
+    }
+
+    /// Makes `A(rho)` the current factor.
+    pub fn set_rho(&mut self, rho: f64) -> Result<(), Error> {
+        match self {
+            Factor::Dense(f) => f.set_rho(rho),
+            Factor::Sparse(f) => f.set_rho(rho),
+        }
+    }
+
+    /// Solves `A(rho) x = rhs` in place (no allocation).
+    pub fn solve_in_place(&mut self, rhs: &mut [f64]) {
+        match self {
+            Factor::Dense(f) => f.solve_in_place(rhs),
+            Factor::Sparse(f) => f.solve_in_place(rhs),
+        }
+    }
+
+    /// `y = A(rho) x` for the current rho.
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
+        match self {
+            Factor::Dense(f) => f.mul_vec(x, y),
+            Factor::Sparse(f) => f.mul_vec(x, y),
+        }
+    }
+}

@@ -125,6 +125,22 @@ impl ParamMatrix {
         scatter(&mut self.slope, &assembly.slope, slope);
     }
 
+    /// `y = A x` for the values `values` on this pattern; `symmetric`: only the upper
+    /// triangle is stored, the product is the full matrix's.
+    pub fn mul_vec(&self, values: &[f64], symmetric: bool, x: &[f64], y: &mut [f64]) {
+        y.fill(0.0);
+        for j in 0..self.n {
+            for k in self.colptr[j]..self.colptr[j + 1] {
+                let i = self.rowind[k];
+                let v = values[k];
+                y[i] += v * x[j];
+                if symmetric && i != j {
+                    y[j] += v * x[i];
+                }
+            }
+        }
+    }
+
     /// Values of `A(rho)` into `out`.
     pub fn values_at(&self, rho: f64, out: &mut [f64]) {
         for ((o, b), s) in out.iter_mut().zip(&self.base).zip(&self.slope) {
@@ -138,10 +154,16 @@ pub fn triplets(a: &CscMatrix) -> impl Iterator<Item = (usize, usize, f64)> + '_
     (0..a.ncols()).flat_map(move |j| a.col(j).map(move |(i, v)| (i, j, v)))
 }
 
-/// Triplets of `H H^T` (`H` is `n x m`), accumulated column by column of `H`.
-pub fn gram_triplets(h: &CscMatrix) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
-    (0..h.ncols()).flat_map(move |k| {
-        h.col(k)
-            .flat_map(move |(i, vi)| h.col(k).map(move |(j, vj)| (i, j, vi * vj)))
-    })
+/// Triplets of `H_a H_a^T` (`H` is `n x m`), accumulated column by column of `H`, over
+/// the columns `k` with `active[k] != 0`.
+pub fn gram_triplets<'a>(
+    h: &'a CscMatrix,
+    active: &'a [f64],
+) -> impl Iterator<Item = (usize, usize, f64)> + 'a {
+    (0..h.ncols())
+        .filter(|&k| active[k] != 0.0)
+        .flat_map(move |k| {
+            h.col(k)
+                .flat_map(move |(i, vi)| h.col(k).map(move |(j, vj)| (i, j, vi * vj)))
+        })
 }

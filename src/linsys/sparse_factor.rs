@@ -261,17 +261,7 @@ impl SparseFactor {
     /// `y = A(rho) x` for the current rho (for iterative refinement), full matrix product
     /// even when only the upper triangle is stored.
     pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
-        y.fill(0.0);
-        let symmetric = self.kind != FactorKind::Lu;
-        for j in 0..self.matrix.n {
-            for k in self.matrix.colptr[j]..self.matrix.colptr[j + 1] {
-                let i = self.matrix.rowind[k];
-                let v = self.values[k];
-                y[i] += v * x[j];
-                if symmetric && i != j {
-                    y[j] += v * x[i];
-                }
-            }
-        }
+        self.matrix
+            .mul_vec(&self.values, self.kind != FactorKind::Lu, x, y);
     }
 }

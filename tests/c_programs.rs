@@ -1,5 +1,5 @@
 //! Builds and runs the plain C test programs of `c_tests/` (`test_api_errors.c`,
-//! `test_analytic.c`, `test_joints.c`, `test_random.c`) against the cadmm shared library that cargo built for this test run,
+//! `test_analytic.c`, `test_joints.c`, `test_islands.c`, `test_random.c`) against the cadmm shared library that cargo built for this test run,
 //! so `cargo test` exercises the C API too (CMake/CTest runs the full C/C++ suite).
 //!
 //! The programs are compiled with the `cc` crate (`-Wall -Wextra -Werror`, C11) into
@@ -191,6 +191,11 @@ fn c_test_analytic() {
 #[test]
 fn c_test_joints() {
     run("test_joints");
+}
+
+#[test]
+fn c_test_islands() {
+    run("test_islands");
 }
 
 #[test]

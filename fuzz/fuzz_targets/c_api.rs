@@ -235,7 +235,7 @@ fn run(data: &[u8]) -> Result<()> {
                     _ => {
                         let mut status: cadmm_status = -1;
                         if cadmm_solver_solve(sv, &mut status) == CADMM_OK {
-                            assert!((0..=4).contains(&status), "status {status}");
+                            assert!((0..=5).contains(&status), "status {status}");
                         }
                     }
                 }

@@ -443,6 +443,29 @@ pub unsafe extern "C" fn cadmm_solver_get_joint_multipliers(
     unsafe { with_solver(sv, body) }
 }
 
+/// Writes `stats` into the caller's `*out`, as much of it as `out->struct_size` covers.
+///
+/// # Safety
+/// `out`, if non-NULL, must point to a writable `cadmm_stats` of `struct_size` bytes.
+unsafe fn put_stats(out: *mut cadmm_stats, stats: &crate::stats::Stats) -> FfiResult {
+    check_ptr("out", out.cast_const())?;
+    // SAFETY: non-NULL and aligned; `struct_size` is the first field, present in every
+    // version of the struct.
+    let size = unsafe { out.cast::<usize>().read() };
+    if size < STATS_MIN_SIZE {
+        return Err(Failure::new(
+            CADMM_ERR_INVALID_VALUE,
+            format!(
+                "out->struct_size = {size} is smaller than the {STATS_MIN_SIZE} bytes \
+                 required (set it to sizeof(cadmm_stats))"
+            ),
+        ));
+    }
+    // SAFETY: the caller's struct holds `size` bytes by contract.
+    unsafe { write_stats(out, size, &cadmm_stats::from(stats)) };
+    Ok(())
+}
+
 /// Fills `*out` with the statistics of the last solve; set `out->struct_size =
 /// sizeof(cadmm_stats)` first (see `cadmm_stats`). Errors: `CADMM_ERR_NULL_POINTER`,
 /// `CADMM_ERR_INVALID_VALUE` (`struct_size` too small; nothing is written).
@@ -451,25 +474,8 @@ pub unsafe extern "C" fn cadmm_solver_get_stats(
     sv: *const cadmm_solver,
     out: *mut cadmm_stats,
 ) -> cadmm_result {
-    let body = |sv: &cadmm_solver| -> FfiResult {
-        check_ptr("out", out.cast_const())?;
-        // SAFETY: non-NULL and aligned; `struct_size` is the first field, present in
-        // every version of the struct.
-        let size = out.cast::<usize>().read();
-        if size < STATS_MIN_SIZE {
-            return Err(Failure::new(
-                CADMM_ERR_INVALID_VALUE,
-                format!(
-                    "out->struct_size = {size} is smaller than the {STATS_MIN_SIZE} bytes \
-                     required (set it to sizeof(cadmm_stats))"
-                ),
-            ));
-        }
-        let stats = cadmm_stats::from(sv.solver.stats());
-        // SAFETY: the caller's struct holds `size` bytes by contract.
-        write_stats(out, size, &stats);
-        Ok(())
-    };
+    // SAFETY: the caller's contract, forwarded.
+    let body = |sv: &cadmm_solver| unsafe { put_stats(out, sv.solver.stats()) };
     // SAFETY: the caller's contract, forwarded.
     unsafe { with_solver(sv, body) }
 }
@@ -486,29 +492,16 @@ pub unsafe extern "C" fn cadmm_solver_get_island_stats(
     out: *mut cadmm_stats,
 ) -> cadmm_result {
     let body = |sv: &cadmm_solver| -> FfiResult {
-        check_ptr("out", out.cast_const())?;
-        // SAFETY: non-NULL and aligned; `struct_size` is the first field.
-        let size = out.cast::<usize>().read();
-        if size < STATS_MIN_SIZE {
-            return Err(Failure::new(
-                CADMM_ERR_INVALID_VALUE,
-                format!(
-                    "out->struct_size = {size} is smaller than the {STATS_MIN_SIZE} bytes \
-                     required (set it to sizeof(cadmm_stats))"
-                ),
-            ));
-        }
         let islands = sv.solver.island_stats();
         let Some(island) = islands.get(index) else {
+            check_ptr("out", out.cast_const())?;
             return Err(Failure::new(
                 CADMM_ERR_INVALID_VALUE,
                 format!("island {index} does not exist ({} islands)", islands.len()),
             ));
         };
-        let stats = cadmm_stats::from(island);
-        // SAFETY: the caller's struct holds `size` bytes by contract.
-        write_stats(out, size, &stats);
-        Ok(())
+        // SAFETY: the caller's contract, forwarded.
+        unsafe { put_stats(out, island) }
     };
     // SAFETY: the caller's contract, forwarded.
     unsafe { with_solver(sv, body) }

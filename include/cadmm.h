@@ -196,7 +196,7 @@ typedef struct cadmm_stats {
     int64_t failed_island;
     /**
      * Rows of the contact space in the linear systems: `3 nc`, less two for each
-     * frictionless contact, whose tangential rows are left out.
+     * contact of an island whose contacts are all frictionless.
      */
     uint64_t rows;
 } cadmm_stats;

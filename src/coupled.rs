@@ -8,7 +8,9 @@ use crate::error::{Error, Status};
 use crate::measure::Floors;
 use crate::newton::{FailReason, NewtonStatus};
 use crate::problem::{NewValues, Problem};
-use crate::settings::{NewtonUse, Resolved, Settings, NEWTON_MAX_STEPS};
+use crate::settings::{
+    NewtonUse, Resolved, Settings, NEWTON_FIRST_MAX_SIZE, NEWTON_FIRST_STEPS, NEWTON_MAX_STEPS,
+};
 use crate::solver::Solution;
 use crate::stats::{Phase, Stats, TracePoint};
 use std::time::{Duration, Instant};
@@ -23,6 +25,8 @@ pub(crate) struct CoupledSolver {
     warm: bool,
     stats: Stats,
     trace: Vec<TracePoint>,
+    /// A small problem with the Newton phase on: each solve starts with Newton.
+    newton_first: bool,
 }
 
 impl CoupledSolver {
@@ -34,6 +38,13 @@ impl CoupledSolver {
         let resolved = settings.resolved();
         let rho0 = initial_rho(resolved.initial_rho, &problem)?;
         let l = 3 * problem.n_contacts();
+        let joints = match &problem {
+            Problem::Global(g) => g.joints.as_ref().map_or(0, |j| j.b.len()),
+            Problem::Local(_) => 0,
+        };
+        let newton_first = resolved.newton == NewtonUse::Polish
+            && l > 0
+            && problem.n_velocities() + l + joints <= NEWTON_FIRST_MAX_SIZE;
         let mut form = contact_form(problem)?;
         form.set_rho(rho0)?;
         let state = EngineState {
@@ -58,6 +69,7 @@ impl CoupledSolver {
             warm: false,
             stats,
             trace: Vec::new(),
+            newton_first,
         })
     }
 
@@ -125,7 +137,13 @@ impl CoupledSolver {
     /// from zero.
     pub(crate) fn solve(&mut self) -> Result<Status, Error> {
         let t0 = Instant::now();
-        if self.form.separating(&mut self.state) {
+        // Short cuts, each measured before it is taken: a warm start that already meets the
+        // tolerance (an engine's resting scene), and contacts that all separate.
+        let warm_enough = self.warm && {
+            let s = &self.state;
+            self.form.error(&s.ax, &s.y, &s.zeta, s.rho) <= self.settings.tolerance
+        };
+        if warm_enough || self.form.separating(&mut self.state) {
             let s = &self.state;
             let error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
             if error <= self.settings.tolerance {
@@ -165,13 +183,14 @@ impl CoupledSolver {
         let mut status = None;
         let mut error = f64::INFINITY;
         // ADMM and Newton phases alternate until one meets the tolerance or a limit is hit;
-        // the iteration limit counts the steps of both.
+        // the iteration limit counts the steps of both. A small problem starts with Newton.
+        let mut newton_first = self.newton_first;
         while status.is_none() {
             let left = self
                 .settings
                 .max_iterations
                 .saturating_sub(stats.iterations);
-            if self.resolved.newton != NewtonUse::Alone {
+            if self.resolved.newton != NewtonUse::Alone && !newton_first {
                 set.max_iterations = left;
                 let out = admm::run(self.form.as_mut(), &mut self.state, &set, t0)?;
                 stats.iterations += out.iterations;
@@ -209,6 +228,7 @@ impl CoupledSolver {
             // Newton alone may use every iteration left; as a polish, a bounded phase.
             let steps = match self.resolved.newton {
                 NewtonUse::Alone => left,
+                _ if newton_first => left.min(NEWTON_FIRST_STEPS),
                 _ => left.min(NEWTON_MAX_STEPS),
             };
             let newton =
@@ -250,7 +270,10 @@ impl CoupledSolver {
                 // error is well below where this Newton phase failed, or after a stall twice
                 // as long: Newton then costs a bounded share of the solve.
                 stats.newton_fallbacks += 1;
-                if let Some(h) = set.handover.as_mut() {
+                if newton_first {
+                    // The first phase of a small problem: ADMM runs with the usual handover.
+                    newton_first = false;
+                } else if let Some(h) = set.handover.as_mut() {
                     h.error_below = 1e-2 * h.error_below.min(error);
                     h.stall_checks *= 2;
                 }

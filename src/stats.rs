@@ -36,7 +36,7 @@ pub struct Stats {
     /// Seconds spent building the solver (symbolic and first numeric factorization).
     pub setup_seconds: f64,
     /// Rows of the contact space in the linear systems: `3 nc`, less two for each
-    /// frictionless contact, whose tangential rows are left out (docs/algorithms.md §4).
+    /// contact of an island whose contacts are all frictionless (docs/algorithms.md §12).
     pub rows: usize,
     /// Contact islands the problem was solved as (1 when islands are off or the problem
     /// is one coupled island; 0 without contacts).

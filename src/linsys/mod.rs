@@ -5,7 +5,7 @@
 //! rho rule that oscillates between two values does not refactorize back and forth. Small
 //! ones (an island of a few contacts) are factorized densely.
 
-mod dense;
+pub(crate) mod dense;
 pub mod param_matrix;
 mod sparse_factor;
 

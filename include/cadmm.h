@@ -315,8 +315,8 @@ typedef struct cadmm_trace_point {
 #define CADMM_STATUS_STALLED 4
 
 /**
- * No impulse can satisfy some contact: its columns of H are empty, so no velocity moves
- * it, and its fixed relative velocity `w` approaches.
+ * No impulse can satisfy some contact: its normal relative velocity cannot change (its
+ * normal column of H, or normal row of W, is zero) and it approaches (`w_N < 0`, `q_N < 0`).
  */
 #define CADMM_STATUS_INFEASIBLE 5
 

@@ -137,6 +137,27 @@ impl CoupledSolver {
     /// from zero.
     pub(crate) fn solve(&mut self) -> Result<Status, Error> {
         let t0 = Instant::now();
+        if self.form.blocked_contact().is_some() {
+            // No impulse can satisfy that contact: say so from the cold-start iterate,
+            // measured, rather than let the impulses grow until the relative measure fades.
+            self.warm = false;
+            self.trace.clear();
+            self.state.rho = self.rho0;
+            self.form.cold_start(&mut self.state);
+            let s = &self.state;
+            let error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
+            self.stats = Stats {
+                status: Status::Infeasible,
+                error,
+                rho: self.state.rho,
+                refactorizations: self.form.refactorizations(),
+                rows: self.form.rows(),
+                setup_seconds: self.stats.setup_seconds,
+                solve_seconds: t0.elapsed().as_secs_f64(),
+                ..Default::default()
+            };
+            return Ok(Status::Infeasible);
+        }
         // Short cuts, each measured before it is taken: a warm start that already meets the
         // tolerance (an engine's resting scene), and contacts that all separate.
         let warm_enough = self.warm && {

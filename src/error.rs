@@ -103,9 +103,10 @@ pub enum Status {
     /// The method stopped making progress before the tolerance (only the `newton` variant,
     /// which has no ADMM to fall back on); its best iterate is kept.
     Stalled = 4,
-    /// No impulse can satisfy some contact: its columns of the contact Jacobian are empty,
-    /// so no velocity moves it, and its fixed relative velocity `w` approaches (global form,
-    /// docs/algorithms.md §12). The other contacts are solved as far as the statistics say.
+    /// No impulse can satisfy some contact: its normal relative velocity cannot change (its
+    /// normal column of H, or its normal row of W, is zero; or, with islands, all its
+    /// columns of H are empty) and it approaches (docs/algorithms.md §12). The solution
+    /// returned is not one; its error is measured.
     Infeasible = 5,
 }
 

@@ -330,3 +330,62 @@ fn frictionless_contacts_carry_one_row() {
         assert!(errors.iter().all(|&e| e <= TOL), "{rel}: {errors:?}");
     }
 }
+
+/// A contact whose normal velocity no impulse can change (its normal column of H, or its
+/// normal row of W, is zero) and which approaches has no solution: `Infeasible`, never
+/// `Solved`, with islands on or off; the same contact moving apart is solved.
+#[test]
+fn a_contact_whose_normal_cannot_move() {
+    // One unit mass; the contact's tangential columns touch it, its normal column does not.
+    let h = CscMatrix::from_triplets("H", 3, 3, &[(1, 1, 1.0), (2, 2, 1.0)]).unwrap();
+    for (w_n, expected) in [(-8.0, Status::Infeasible), (8.0, Status::Solved)] {
+        let g = GlobalProblem::new(
+            CscMatrix::identity(3),
+            h.clone(),
+            vec![-1.0, 0.5, 0.0],
+            vec![w_n, 0.0, 0.0],
+            vec![0.3],
+        )
+        .unwrap();
+        let p = Problem::Global(g);
+        for islands in [true, false] {
+            let settings = Settings {
+                islands,
+                ..Settings::default()
+            };
+            let (solver, status) = solve(&p, settings);
+            assert_eq!(status, expected, "w_N = {w_n}, islands {islands}");
+            let e = independent_error(&p, &solver.solution());
+            assert!(e.is_finite());
+            assert_eq!(e <= TOL, expected == Status::Solved, "w_N = {w_n}: {e:e}");
+        }
+    }
+    // Local form: W's normal row of the first contact is zero (a stored zero included).
+    let w = CscMatrix::from_triplets(
+        "W",
+        6,
+        6,
+        &[
+            (0, 3, 0.0),
+            (1, 1, 1.0),
+            (2, 2, 1.0),
+            (3, 3, 2.0),
+            (4, 4, 1.0),
+            (5, 5, 1.0),
+        ],
+    )
+    .unwrap();
+    for (q_n, expected) in [(-1.0, Status::Infeasible), (1.0, Status::Solved)] {
+        let l = LocalProblem::new(
+            w.clone(),
+            vec![q_n, 0.2, 0.0, -1.0, 0.0, 0.0],
+            vec![0.5, 0.5],
+        )
+        .unwrap();
+        let p = Problem::Local(l);
+        let (solver, status) = solve(&p, Settings::default());
+        assert_eq!(status, expected, "q_N = {q_n}");
+        let e = independent_error(&p, &solver.solution());
+        assert_eq!(e <= TOL, expected == Status::Solved, "q_N = {q_n}: {e:e}");
+    }
+}

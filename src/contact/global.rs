@@ -432,6 +432,11 @@ impl ContactForm for GlobalSplitting {
         count_rows(&self.active)
     }
 
+    fn blocked_contact(&self) -> Option<usize> {
+        (0..self.p.n_contacts())
+            .find(|&i| self.p.w[3 * i] < 0.0 && self.p.h.col(3 * i).all(|(_, x)| x == 0.0))
+    }
+
     fn refactorizations(&self) -> usize {
         self.factor.refactorizations() + self.mass.refactorizations()
     }

@@ -29,6 +29,8 @@ pub struct LocalSplitting {
     zero: Vec<f64>,
     /// 1 for the rows in the system, 0 for the tangential rows of frictionless contacts.
     active: Vec<f64>,
+    /// Stored entries of W in each contact's normal row.
+    normal_rows: Vec<Vec<usize>>,
     u: Vec<f64>,
     measure: MeasureWork,
     /// The Newton phase, built on first use and kept across updates.
@@ -40,6 +42,12 @@ impl LocalSplitting {
     pub(crate) fn new(p: LocalProblem) -> Result<Self, Error> {
         let m = p.q.len();
         let active = active_rows(&p.mu);
+        let mut normal_rows = vec![Vec::new(); p.n_contacts()];
+        for (k, &i) in p.w.rowind().iter().enumerate() {
+            if i % 3 == 0 {
+                normal_rows[i / 3].push(k);
+            }
+        }
         let (matrix, assembly, kind) = system_matrix(&p, &active);
         let w_mirror = (kind == FactorKind::Cholesky).then(|| p.w.mirror_map());
         let factor = Factor::new("W + rho I", matrix, kind)?;
@@ -54,6 +62,7 @@ impl LocalSplitting {
             phi,
             zero: vec![0.0; m],
             active,
+            normal_rows,
             u: vec![0.0; m],
             measure: MeasureWork::local(&p),
             newton: None,
@@ -285,6 +294,16 @@ impl ContactForm for LocalSplitting {
 
     fn rows(&self) -> usize {
         count_rows(&self.active)
+    }
+
+    fn blocked_contact(&self) -> Option<usize> {
+        self.normal_rows
+            .iter()
+            .enumerate()
+            .find(|&(i, entries)| {
+                self.p.q[3 * i] < 0.0 && entries.iter().all(|&k| self.p.w.values()[k] == 0.0)
+            })
+            .map(|(i, _)| i)
     }
 
     fn refactorizations(&self) -> usize {

@@ -59,6 +59,10 @@ pub(crate) trait ContactForm: Splitting + Send {
     /// Rows of the contact space in the linear systems (`3 nc`, less two per frictionless
     /// contact).
     fn rows(&self) -> usize;
+    /// A contact whose normal relative velocity no impulse can change (its normal column
+    /// of H, or its normal row of W, is zero) and which approaches there (`w_N < 0`, or
+    /// `q_N < 0`): Coulomb's law needs `u_N >= 0`, so the problem has no solution.
+    fn blocked_contact(&self) -> Option<usize>;
     /// Numeric factorizations so far.
     fn refactorizations(&self) -> usize;
     /// The Newton phase from the iterate in `state`: when it ends below the error of its

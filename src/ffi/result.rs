@@ -47,8 +47,8 @@ pub const CADMM_STATUS_NUMERICAL_ERROR: cadmm_status = 3;
 /// The method stopped making progress before the tolerance (only the "newton" variant,
 /// which has no ADMM to fall back on); the solution is its best iterate.
 pub const CADMM_STATUS_STALLED: cadmm_status = 4;
-/// No impulse can satisfy some contact: its columns of H are empty, so no velocity moves
-/// it, and its fixed relative velocity `w` approaches.
+/// No impulse can satisfy some contact: its normal relative velocity cannot change (its
+/// normal column of H, or normal row of W, is zero) and it approaches (`w_N < 0`, `q_N < 0`).
 pub const CADMM_STATUS_INFEASIBLE: cadmm_status = 5;
 
 /// The C status code of a [`Status`].

@@ -140,52 +140,26 @@ impl CoupledSolver {
         if self.form.blocked_contact().is_some() {
             // No impulse can satisfy that contact: say so from the cold-start iterate,
             // measured, rather than let the impulses grow until the relative measure fades.
-            self.warm = false;
-            self.trace.clear();
             self.state.rho = self.rho0;
             self.form.cold_start(&mut self.state);
-            let s = &self.state;
-            let error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
-            self.stats = Stats {
-                status: Status::Infeasible,
-                error,
-                rho: self.state.rho,
-                refactorizations: self.form.refactorizations(),
-                rows: self.form.rows(),
-                setup_seconds: self.stats.setup_seconds,
-                solve_seconds: t0.elapsed().as_secs_f64(),
-                ..Default::default()
-            };
-            return Ok(Status::Infeasible);
+            let error = self.iterate_error();
+            return Ok(self.end_without_iterating(Status::Infeasible, error, t0));
         }
         // Short cuts, each measured before it is taken: a warm start that already meets the
         // tolerance (an engine's resting scene), and contacts that all separate.
-        let warm_enough = self.warm && {
-            let s = &self.state;
-            self.form.error(&s.ax, &s.y, &s.zeta, s.rho) <= self.settings.tolerance
-        };
-        if warm_enough || self.form.separating(&mut self.state) {
-            let s = &self.state;
-            let error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
+        if self.warm {
+            let error = self.iterate_error();
             if error <= self.settings.tolerance {
-                self.warm = false;
-                self.trace.clear();
-                self.stats = Stats {
-                    status: Status::Solved,
-                    iterations: 0,
-                    error,
-                    primal_residual: 0.0,
-                    dual_residual: 0.0,
-                    rho: self.state.rho,
-                    refactorizations: self.form.refactorizations(),
-                    rows: self.form.rows(),
-                    setup_seconds: self.stats.setup_seconds,
-                    solve_seconds: t0.elapsed().as_secs_f64(),
-                    ..Default::default()
-                };
-                return Ok(Status::Solved);
+                return Ok(self.end_without_iterating(Status::Solved, error, t0));
             }
-            // Round-off kept r = 0 above the tolerance: solve from the start.
+        }
+        if self.form.separating(&mut self.state) {
+            let error = self.iterate_error();
+            if error <= self.settings.tolerance {
+                return Ok(self.end_without_iterating(Status::Solved, error, t0));
+            }
+            // Round-off kept r = 0 above the tolerance (and the warm start is gone): solve
+            // from the start.
             self.warm = false;
         }
         if !self.warm {
@@ -311,6 +285,33 @@ impl CoupledSolver {
             ..stats
         };
         Ok(status)
+    }
+
+    /// The error measure of the iterate in the engine state.
+    fn iterate_error(&mut self) -> f64 {
+        let s = &self.state;
+        self.form.error(&s.ax, &s.y, &s.zeta, s.rho)
+    }
+
+    /// Ends a solve that took no iteration (a short cut, or no solution) with the iterate
+    /// in the engine state.
+    fn end_without_iterating(&mut self, status: Status, error: f64, t0: Instant) -> Status {
+        self.warm = false;
+        self.trace.clear();
+        self.stats = Stats {
+            status,
+            iterations: 0,
+            error,
+            primal_residual: 0.0,
+            dual_residual: 0.0,
+            rho: self.state.rho,
+            refactorizations: self.form.refactorizations(),
+            rows: self.form.rows(),
+            setup_seconds: self.stats.setup_seconds,
+            solve_seconds: t0.elapsed().as_secs_f64(),
+            ..Default::default()
+        };
+        status
     }
 
     /// The current solution (the last finite iterate).

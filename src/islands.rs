@@ -79,8 +79,7 @@ pub(crate) struct Partition {
 impl Partition {
     /// True when the problem is one coupled part (nothing to split).
     pub fn is_whole(&self) -> bool {
-        self.islands.len() + usize::from(self.free.is_some()) + self.bodiless.len() <= 1
-            && self.bodiless.is_empty()
+        self.bodiless.is_empty() && self.islands.len() + usize::from(self.free.is_some()) <= 1
     }
 }
 

@@ -60,6 +60,9 @@ struct Split {
     measure: MeasureWork,
     /// The whole problem's scales known before solving: `||f||`, `||b||` (local: `||q||`).
     known_scales: Scales,
+    /// The solution assembled and measured by the last solve, until an update or a warm
+    /// start changes the parts.
+    assembled: Option<Solution>,
     /// The part whose trace and residuals the solver reports (the one that needed the
     /// most iterations in the last solve; none without parts).
     slowest: Option<usize>,
@@ -339,7 +342,7 @@ impl Solver {
     pub fn solution(&self) -> Solution {
         match &self.layout {
             Layout::Whole(s) => s.solution(),
-            Layout::Split(split) => split.assemble(),
+            Layout::Split(split) => split.solution(),
         }
     }
 
@@ -413,6 +416,7 @@ impl Split {
             bodiless,
             measure,
             slowest: None,
+            assembled: None,
         })
     }
 
@@ -432,11 +436,13 @@ impl Split {
             });
         }
         self.whole = problem;
+        self.assembled = None;
         self.distribute(&EVERY_FIELD)
     }
 
     fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
         self.whole.set_values(values)?;
+        self.assembled = None;
         self.distribute(values)
     }
 
@@ -469,6 +475,7 @@ impl Split {
         if let Some(v) = v {
             crate::problem::check_len("v", v, self.whole.n_velocities())?;
         }
+        self.assembled = None;
         for p in &mut self.parts {
             gather(r, contact_rows(&p.part.contacts), &mut p.r);
             if let Some(v) = v {
@@ -493,7 +500,13 @@ impl Split {
             p.set_floors(self.known_scales);
         }
         let mut error = f64::INFINITY;
-        for round in 0..ISLAND_ROUNDS {
+        // With a bodiless contact that approaches, no round can meet the tolerance.
+        let rounds = if self.bodiless_blocked() {
+            1
+        } else {
+            ISLAND_ROUNDS
+        };
+        for round in 0..rounds {
             self.solve_parts(&pending, settings, t0);
             if let Some(Err(e)) = self.parts.iter().map(|p| &p.outcome).find(|o| o.is_err()) {
                 return Err(e.clone());
@@ -503,7 +516,7 @@ impl Split {
                 .parts
                 .iter()
                 .all(|p| matches!(p.outcome, Ok(Status::Solved)));
-            if error <= tol || !all_solved || round + 1 == ISLAND_ROUNDS {
+            if error <= tol || !all_solved || round + 1 == rounds {
                 break;
             }
             let scales = self.measure.scales;
@@ -521,12 +534,17 @@ impl Split {
             }
         }
         self.slowest = (0..self.parts.len()).max_by_key(|&k| self.parts[k].stats.iterations);
-        let status = if error <= tol {
+        let infeasible = self.bodiless_blocked()
+            || self
+                .parts
+                .iter()
+                .any(|p| p.stats.status == Status::Infeasible);
+        let status = if infeasible {
+            Status::Infeasible
+        } else if error <= tol {
             Status::Solved
         } else if let Some(p) = self.parts.iter().find(|p| p.stats.status != Status::Solved) {
             p.stats.status
-        } else if !self.bodiless_satisfied(tol) {
-            Status::Infeasible
         } else {
             Status::MaxIterations
         };
@@ -564,17 +582,14 @@ impl Split {
         });
     }
 
-    /// True when every bodiless contact is satisfied by `r = 0` (its fixed `w` does not
-    /// approach), to the tolerance.
-    fn bodiless_satisfied(&self, tol: f64) -> bool {
-        let Problem::Global(g) = &self.whole else {
-            return true;
-        };
-        self.bodiless.iter().all(|&c| {
-            let u = [g.w[3 * c], g.w[3 * c + 1], g.w[3 * c + 2]];
-            let scale = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
-            crate::measure::complementarity_residual(&[0.0; 3], &u, &[g.mu[c]]) <= tol * scale
-        })
+    /// True when a bodiless contact approaches (`w_N < 0`): the criterion of the forms'
+    /// `blocked_contact`, its normal column of H being empty. One that does not is solved
+    /// exactly by `r = 0`.
+    fn bodiless_blocked(&self) -> bool {
+        match &self.whole {
+            Problem::Global(g) => self.bodiless.iter().any(|&c| g.w[3 * c] < 0.0),
+            Problem::Local(_) => false,
+        }
     }
 
     /// The solution of the whole problem from the parts' (bodiless contacts: `r = 0`,
@@ -612,12 +627,23 @@ impl Split {
         out
     }
 
-    /// The whole problem's error measure at the assembled solution.
+    /// The whole problem's error measure at the assembled solution, which is kept for
+    /// [`Solver::solution`].
     fn whole_error(&mut self) -> f64 {
         let s = self.assemble();
-        match &self.whole {
+        let error = match &self.whole {
             Problem::Global(g) => global_error_with(g, &s.r, &s.v, &s.lambda, &mut self.measure),
             Problem::Local(l) => local_error_with(l, &s.r, &mut self.measure),
+        };
+        self.assembled = Some(s);
+        error
+    }
+
+    /// The assembled solution: the last solve's, or assembled now.
+    fn solution(&self) -> Solution {
+        match &self.assembled {
+            Some(s) => s.clone(),
+            None => self.assemble(),
         }
     }
 }

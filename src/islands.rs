@@ -236,7 +236,12 @@ pub(crate) fn contact_rows(contacts: &[usize]) -> impl Iterator<Item = usize> + 
     contacts.iter().flat_map(|&c| 3 * c..3 * c + 3)
 }
 
-/// `x[indices]`.
+/// `x[indices]`, new.
+fn pick(x: &[f64], indices: impl Iterator<Item = usize>) -> Vec<f64> {
+    indices.map(|i| x[i]).collect()
+}
+
+/// `x[indices]` into `out`.
 pub(crate) fn gather(x: &[f64], indices: impl Iterator<Item = usize>, out: &mut [f64]) {
     for (o, i) in out.iter_mut().zip(indices) {
         *o = x[i];
@@ -254,16 +259,15 @@ impl Part {
         let nv = self.velocities.len();
         let (m, m_entries) = sub_matrix("M", &p.m, nv, self.velocities.iter().copied(), row_of)?;
         let (h, h_entries) = sub_matrix("H", &p.h, nv, contact_rows(&self.contacts), row_of)?;
-        let pick = |x: &[f64], idx: &mut dyn Iterator<Item = usize>| idx.map(|i| x[i]).collect();
-        let f = pick(&p.f, &mut self.velocities.iter().copied());
-        let w = pick(&p.w, &mut contact_rows(&self.contacts));
-        let mu = pick(&p.mu, &mut self.contacts.iter().copied());
+        let f = pick(&p.f, self.velocities.iter().copied());
+        let w = pick(&p.w, contact_rows(&self.contacts));
+        let mu = pick(&p.mu, self.contacts.iter().copied());
         let mut sub = GlobalProblem::new(m, h, f, w, mu)?;
         self.m_entries = m_entries;
         self.h_entries = h_entries;
         if let Some(j) = &p.joints {
             let (g, g_entries) = sub_matrix("G", &j.g, nv, self.joints.iter().copied(), row_of)?;
-            let b = pick(&j.b, &mut self.joints.iter().copied());
+            let b = pick(&j.b, self.joints.iter().copied());
             sub = sub.with_joints(g, b)?;
             self.g_entries = g_entries;
         }
@@ -279,8 +283,8 @@ impl Part {
     ) -> Result<LocalProblem, Error> {
         let m = 3 * self.contacts.len();
         let (w, entries) = sub_matrix("W", &p.w, m, contact_rows(&self.contacts), row_of)?;
-        let q = contact_rows(&self.contacts).map(|i| p.q[i]).collect();
-        let mu = self.contacts.iter().map(|&c| p.mu[c]).collect();
+        let q = pick(&p.q, contact_rows(&self.contacts));
+        let mu = pick(&p.mu, self.contacts.iter().copied());
         self.m_entries = entries;
         LocalProblem::new(w, q, mu)
     }

@@ -41,6 +41,7 @@ pub mod measure;
 mod newton;
 mod problem;
 mod settings;
+mod small_island;
 mod solver;
 mod stats;
 

@@ -11,7 +11,8 @@ use crate::islands::{
 };
 use crate::measure::{global_error_with, local_error_with, Floors, MeasureWork, Scales};
 use crate::problem::{NewValues, Problem};
-use crate::settings::{Resolved, Settings, ISLAND_ROUNDS};
+use crate::settings::{NewtonUse, Resolved, Settings, ISLAND_ROUNDS, NEWTON_FIRST_STEPS};
+use crate::small_island::{is_small_island, SmallIsland};
 use crate::stats::{Stats, TracePoint};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -68,14 +69,23 @@ struct Split {
     slowest: Option<usize>,
 }
 
-/// One part and its solver.
+/// One part and its solvers: a small island is solved directly by Newton on its Delassus
+/// form ([`SmallIsland`]); its coupled solver (ADMM and Newton) is built when that fails,
+/// and is the only one of the other parts.
 struct PartSolver {
     part: Part,
-    solver: CoupledSolver,
+    small: Option<SmallIsland>,
+    coupled: Option<CoupledSolver>,
+    /// The settings the coupled solver is built with.
+    settings: Settings,
+    /// The solution of the last solve is the small path's.
+    small_solved: bool,
+    floors: Floors,
     values: ValueBuffers,
     /// Warm-start buffers.
     r: Vec<f64>,
     v: Vec<f64>,
+    warm: bool,
     /// The part's share of the whole problem's velocities, contacts and joints (the
     /// square of the factor applied to the whole's scales in its measure floors).
     share: [f64; 3],
@@ -98,7 +108,17 @@ impl PartSolver {
             Problem::Global(g) => (Problem::Global(part.global_problem(g, row_of)?), true),
             Problem::Local(l) => (Problem::Local(part.local_problem(l, row_of)?), false),
         };
-        let solver = CoupledSolver::new(problem, settings.clone())?;
+        let n = problem.n_velocities();
+        let direct = settings.resolved().newton == NewtonUse::Polish && is_small_island(&problem);
+        let (small, coupled) = if direct {
+            let steps = settings.max_iterations.min(NEWTON_FIRST_STEPS);
+            (
+                Some(SmallIsland::new(problem, steps, settings.trace)?),
+                None,
+            )
+        } else {
+            (None, Some(CoupledSolver::new(problem, settings.clone())?))
+        };
         let fraction = |k: usize, total: usize| k as f64 / total.max(1) as f64;
         let share = match whole {
             Problem::Global(g) => [
@@ -120,8 +140,13 @@ impl PartSolver {
             trace: Vec::new(),
             values: ValueBuffers::new(&part, global),
             r: vec![0.0; 3 * part.contacts.len()],
-            v: vec![0.0; solver.n_velocities()],
-            solver,
+            v: vec![0.0; n],
+            warm: false,
+            small,
+            coupled,
+            settings: settings.clone(),
+            small_solved: false,
+            floors: Floors::default(),
             part,
             tolerance: settings.tolerance,
             outcome: Ok(Status::MaxIterations),
@@ -131,59 +156,137 @@ impl PartSolver {
     /// Floors of the part's measure: its share of the whole problem's scales.
     fn set_floors(&mut self, whole: Scales) {
         let [velocities, contacts, joints] = self.share.map(f64::sqrt);
-        self.solver.set_measure_floors(Floors {
+        self.floors = Floors {
             equation: whole.equation * velocities,
             contact: whole.contact * contacts,
             joint: whole.joint * joints,
-        });
+        };
+        if let Some(s) = &mut self.small {
+            s.set_measure_floors(self.floors);
+        }
+        if let Some(c) = &mut self.coupled {
+            c.set_measure_floors(self.floors);
+        }
+    }
+
+    /// Starts the next solve from the part's share of a warm start (in `self.r`, `self.v`).
+    fn warm_start(&mut self, with_v: bool) -> Result<(), Error> {
+        self.warm = true;
+        if let Some(s) = &mut self.small {
+            s.warm_start(&self.r);
+        }
+        if let Some(c) = &mut self.coupled {
+            c.warm_start(&self.r, with_v.then_some(self.v.as_slice()))?;
+        }
+        Ok(())
     }
 
     /// Solves with the part's tolerance and what is left of the time limit, and adds the
-    /// solve to the part's statistics and trace.
+    /// solve to the part's statistics and trace: the small path first, the coupled solver
+    /// (built now if need be, and starting as the warm start asked) when it fails.
     fn solve(&mut self, t0: Instant, time_limit: f64) {
-        let started = t0.elapsed().as_secs_f64();
-        let time_left = time_limit - started;
-        self.outcome = if time_left <= 0.0 {
-            Ok(Status::TimeLimit)
-        } else {
-            self.solver.set_limits(self.tolerance, time_left);
-            self.solver.solve()
-        };
-        let s = self.solver.stats();
-        let offset = self.stats.iterations;
-        self.trace
-            .extend(self.solver.trace().iter().map(|t| TracePoint {
-                iteration: t.iteration + offset,
-                seconds: t.seconds + started,
-                ..*t
-            }));
-        let total = &mut self.stats;
-        *total = Stats {
-            iterations: total.iterations + s.iterations,
-            refactorizations: s.refactorizations,
-            anderson_accepted: total.anderson_accepted + s.anderson_accepted,
-            anderson_rejected: total.anderson_rejected + s.anderson_rejected,
-            newton_iterations: total.newton_iterations + s.newton_iterations,
-            newton_factorizations: total.newton_factorizations + s.newton_factorizations,
-            newton_phases: total.newton_phases + s.newton_phases,
-            newton_fallbacks: total.newton_fallbacks + s.newton_fallbacks,
-            solve_seconds: total.solve_seconds + s.solve_seconds,
-            ..*s
-        };
+        self.outcome = self.solve_once(t0, time_limit);
         if let Ok(status) = self.outcome {
             // A part the time limit left no time for did not run.
-            total.status = status;
+            self.stats.status = status;
+        }
+    }
+
+    fn solve_once(&mut self, t0: Instant, time_limit: f64) -> Result<Status, Error> {
+        let warm = std::mem::replace(&mut self.warm, false);
+        let time_left = time_limit - t0.elapsed().as_secs_f64();
+        if time_left <= 0.0 {
+            return Ok(Status::TimeLimit);
+        }
+        if let Some(small) = &mut self.small {
+            let started = t0.elapsed().as_secs_f64();
+            small.set_limits(self.tolerance, time_left);
+            let status = small.solve()?;
+            let (stats, trace) = (*small.stats(), small.trace());
+            add_solve(&mut self.stats, &mut self.trace, &stats, trace, started);
+            self.small_solved = status == Status::Solved;
+            if self.small_solved || status == Status::TimeLimit {
+                return Ok(status);
+            }
+            self.stats.newton_fallbacks += 1;
+        }
+        if self.coupled.is_none() {
+            let small = self.small.as_ref().expect("a part has one of its solvers");
+            let mut coupled = CoupledSolver::new(small.problem(), self.settings.clone())?;
+            coupled.set_measure_floors(self.floors);
+            if warm {
+                coupled.warm_start(&self.r, None)?;
+            }
+            self.coupled = Some(coupled);
+        }
+        let coupled = self.coupled.as_mut().expect("built above");
+        let started = t0.elapsed().as_secs_f64();
+        let time_left = time_limit - started;
+        if time_left <= 0.0 {
+            return Ok(Status::TimeLimit);
+        }
+        coupled.set_limits(self.tolerance, time_left);
+        let status = coupled.solve()?;
+        add_solve(
+            &mut self.stats,
+            &mut self.trace,
+            coupled.stats(),
+            coupled.trace(),
+            started,
+        );
+        Ok(status)
+    }
+
+    /// The part's solution: that of the solver that solved last.
+    fn solution(&self) -> Solution {
+        match (&self.small, &self.coupled) {
+            (Some(s), _) if self.small_solved => s.solution(),
+            (_, Some(c)) => c.solution(),
+            (Some(s), None) => s.solution(),
+            (None, None) => unreachable!("a part has one of its solvers"),
         }
     }
 
     /// Starts a new solve's statistics.
     fn reset(&mut self) {
+        let setup = |s: &Stats| s.setup_seconds;
         self.stats = Stats {
-            setup_seconds: self.solver.stats().setup_seconds,
+            setup_seconds: self.small.as_ref().map_or(0.0, |s| setup(s.stats()))
+                + self.coupled.as_ref().map_or(0.0, |c| setup(c.stats())),
             ..Stats::default()
         };
         self.trace.clear();
     }
+}
+
+/// Adds one solve's statistics and trace (started `started` seconds into the solve) to a
+/// part's totals.
+fn add_solve(
+    total: &mut Stats,
+    trace: &mut Vec<TracePoint>,
+    s: &Stats,
+    points: &[TracePoint],
+    started: f64,
+) {
+    let offset = total.iterations;
+    trace.extend(points.iter().map(|t| TracePoint {
+        iteration: t.iteration + offset,
+        seconds: t.seconds + started,
+        ..*t
+    }));
+    *total = Stats {
+        iterations: total.iterations + s.iterations,
+        refactorizations: s.refactorizations,
+        anderson_accepted: total.anderson_accepted + s.anderson_accepted,
+        anderson_rejected: total.anderson_rejected + s.anderson_rejected,
+        newton_iterations: total.newton_iterations + s.newton_iterations,
+        newton_factorizations: total.newton_factorizations + s.newton_factorizations,
+        newton_phases: total.newton_phases + s.newton_phases,
+        newton_fallbacks: total.newton_fallbacks + s.newton_fallbacks,
+        solve_seconds: total.solve_seconds + s.solve_seconds,
+        setup_seconds: total.setup_seconds,
+        ..*s
+    };
 }
 
 impl Solver {
@@ -451,11 +554,23 @@ impl Split {
     fn distribute(&mut self, given: &NewValues) -> Result<(), Error> {
         let mut first_error = Ok(());
         for p in &mut self.parts {
+            let PartSolver {
+                part,
+                values,
+                small,
+                coupled,
+                warm,
+                ..
+            } = p;
             let share = match &self.whole {
-                Problem::Global(g) => p.values.global(&p.part, g, given),
-                Problem::Local(l) => p.values.local(&p.part, l, given),
+                Problem::Global(g) => values.global(part, g, given),
+                Problem::Local(l) => values.local(part, l, given),
             };
-            let done = p.solver.update_values(&share);
+            *warm = false;
+            // Both solvers take the values (the coupled one when it has been built).
+            let small = small.as_mut().map_or(Ok(()), |s| s.update_values(&share));
+            let coupled = coupled.as_mut().map_or(Ok(()), |c| c.update_values(&share));
+            let done = small.and(coupled);
             if first_error.is_ok() {
                 first_error = done;
             }
@@ -481,7 +596,7 @@ impl Split {
             if let Some(v) = v {
                 gather(v, p.part.velocities.iter().copied(), &mut p.v);
             }
-            p.solver.warm_start(&p.r, v.map(|_| p.v.as_slice()))?;
+            p.warm_start(v.is_some())?;
         }
         Ok(())
     }
@@ -527,9 +642,10 @@ impl Split {
                 if *again {
                     p.tolerance *= factor;
                     p.set_floors(scales);
-                    let s = p.solver.solution();
-                    let v = (!s.v.is_empty()).then_some(s.v.as_slice());
-                    p.solver.warm_start(&s.r, v)?;
+                    let s = p.solution();
+                    p.r.copy_from_slice(&s.r);
+                    p.v.copy_from_slice(&s.v);
+                    p.warm_start(!s.v.is_empty())?;
                 }
             }
         }
@@ -612,7 +728,7 @@ impl Split {
             }
         }
         for p in &self.parts {
-            let s = p.solver.solution();
+            let s = p.solution();
             for (k, i) in contact_rows(&p.part.contacts).enumerate() {
                 out.r[i] = s.r[k];
                 out.u[i] = s.u[k];

@@ -98,20 +98,7 @@ impl DenseFactor {
         let n = self.matrix.n;
         let a = &self.factor;
         match self.kind {
-            FactorKind::Cholesky => {
-                for j in 0..n {
-                    x[j] /= a[j + j * n];
-                    for i in j + 1..n {
-                        x[i] -= a[i + j * n] * x[j];
-                    }
-                }
-                for j in (0..n).rev() {
-                    for i in j + 1..n {
-                        x[j] -= a[i + j * n] * x[i];
-                    }
-                    x[j] /= a[j + j * n];
-                }
-            }
+            FactorKind::Cholesky => cholesky_solve(a, n, x),
             _ => lu_solve(a, &self.pivots, n, x),
         }
     }
@@ -123,9 +110,25 @@ impl DenseFactor {
     }
 }
 
+/// Solves with the factor of [`cholesky`], in place.
+pub(crate) fn cholesky_solve(a: &[f64], n: usize, x: &mut [f64]) {
+    for j in 0..n {
+        x[j] /= a[j + j * n];
+        for i in j + 1..n {
+            x[i] -= a[i + j * n] * x[j];
+        }
+    }
+    for j in (0..n).rev() {
+        for i in j + 1..n {
+            x[j] -= a[i + j * n] * x[i];
+        }
+        x[j] /= a[j + j * n];
+    }
+}
+
 /// In-place lower Cholesky of a column-major symmetric matrix; false when a pivot is not
 /// positive (or not finite).
-fn cholesky(a: &mut [f64], n: usize) -> bool {
+pub(crate) fn cholesky(a: &mut [f64], n: usize) -> bool {
     for j in 0..n {
         let mut d = a[j + j * n];
         for k in 0..j {

@@ -158,6 +158,42 @@ impl LocalNewton {
         max_iter: usize,
         deadline: Option<Instant>,
     ) -> Result<NewtonOutcome, Error> {
+        self.check(p, r)?;
+        Ok(self.with_best(|s, best| iterate(s, p, r, best, tol, max_iter, deadline)))
+    }
+
+    /// As [`LocalNewton::solve`], but the best iterate and the stop are judged by `measure`
+    /// instead of the local measure: a global problem solved through its Delassus form is
+    /// judged by its own measure at the velocities `r` gives. Open contacts are not snapped.
+    pub(crate) fn solve_measured(
+        &mut self,
+        p: &LocalProblem,
+        r: &mut [f64],
+        tol: f64,
+        max_iter: usize,
+        deadline: Option<Instant>,
+        measure: &mut dyn FnMut(&[f64]) -> f64,
+    ) -> Result<NewtonOutcome, Error> {
+        self.check(p, r)?;
+        Ok(self.with_best(|newton, best| {
+            let mut judged = Measured { newton, measure };
+            iterate(&mut judged, p, r, best, tol, max_iter, deadline)
+        }))
+    }
+
+    /// Runs `solve` with the best-iterate work space lent out of `self`.
+    fn with_best(
+        &mut self,
+        solve: impl FnOnce(&mut Self, &mut [f64]) -> NewtonOutcome,
+    ) -> NewtonOutcome {
+        let mut best = std::mem::take(&mut self.best);
+        let out = solve(self, &mut best);
+        self.best = best;
+        out
+    }
+
+    /// Checks that `p` has the pattern the solver was built for and `r` its length.
+    fn check(&self, p: &LocalProblem, r: &[f64]) -> Result<(), Error> {
         let m = 3 * self.nc;
         if p.n_contacts() != self.nc
             || p.w.colptr() != self.w_colptr
@@ -176,10 +212,39 @@ impl LocalNewton {
                 found: r.len(),
             });
         }
-        let mut best = std::mem::take(&mut self.best);
-        let out = iterate(self, p, r, &mut best, tol, max_iter, deadline);
-        self.best = best;
-        Ok(out)
+        Ok(())
+    }
+}
+
+/// The local Newton system judged by another measure (see [`LocalNewton::solve_measured`]).
+struct Measured<'a> {
+    newton: &'a mut LocalNewton,
+    measure: &'a mut dyn FnMut(&[f64]) -> f64,
+}
+
+impl NewtonSystem for Measured<'_> {
+    type Problem = LocalProblem;
+
+    fn evaluate_at(&mut self, p: &LocalProblem, r: &[f64]) -> f64 {
+        self.newton.evaluate_at(p, r)
+    }
+    fn error(&mut self, _: &LocalProblem, r: &[f64]) -> f64 {
+        (self.measure)(r)
+    }
+    fn direction(&mut self, p: &LocalProblem, alpha: f64) -> bool {
+        self.newton.direction(p, alpha)
+    }
+    fn line_search(&mut self, p: &LocalProblem, r: &[f64], reference: f64) -> Option<f64> {
+        self.newton.line_search(p, r, reference)
+    }
+    fn trial(&self) -> &[f64] {
+        self.newton.trial()
+    }
+    fn snap_open(&mut self, _: &LocalProblem, _: &mut [f64], error: f64, _: f64) -> f64 {
+        error
+    }
+    fn factorizations(&self) -> usize {
+        self.newton.factorizations()
     }
 }
 

@@ -73,10 +73,12 @@ impl CoupledSolver {
         })
     }
 
-    /// Sets the tolerance and the time limit of the next solves (an island's share).
-    pub(crate) fn set_limits(&mut self, tolerance: f64, time_limit: f64) {
+    /// Sets the tolerance, the time limit and the iteration limit of the next solves (an
+    /// island's share).
+    pub(crate) fn set_limits(&mut self, tolerance: f64, time_limit: f64, max_iterations: usize) {
         self.settings.tolerance = tolerance;
         self.settings.time_limit = time_limit;
+        self.settings.max_iterations = max_iterations;
     }
 
     /// Floors of the error measure (an island's share of a scene's measure).

@@ -212,10 +212,22 @@ fn sub_matrix(
     field: &'static str,
     a: &CscMatrix,
     nrows: usize,
-    cols: impl Iterator<Item = usize>,
+    cols: impl Iterator<Item = usize> + Clone,
     row_of: &[usize],
 ) -> Result<(CscMatrix, Vec<usize>), Error> {
-    let (mut colptr, mut rowind, mut values, mut entries) = (vec![0], vec![], vec![], vec![]);
+    // Sized exactly first: a scene of many islands builds many of these.
+    let ncols = cols.clone().count();
+    let nnz = cols
+        .clone()
+        .map(|j| a.colptr()[j + 1] - a.colptr()[j])
+        .sum();
+    let mut colptr = Vec::with_capacity(ncols + 1);
+    colptr.push(0);
+    let (mut rowind, mut values, mut entries) = (
+        Vec::with_capacity(nnz),
+        Vec::with_capacity(nnz),
+        Vec::with_capacity(nnz),
+    );
     for j in cols {
         for k in a.colptr()[j]..a.colptr()[j + 1] {
             rowind.push(row_of[a.rowind()[k]]);
@@ -224,7 +236,6 @@ fn sub_matrix(
         }
         colptr.push(rowind.len());
     }
-    let ncols = colptr.len() - 1;
     Ok((
         CscMatrix::new(field, nrows, ncols, colptr, rowind, values)?,
         entries,
@@ -232,7 +243,7 @@ fn sub_matrix(
 }
 
 /// The entries `3 c`, `3 c + 1`, `3 c + 2` of each contact `c`.
-pub(crate) fn contact_rows(contacts: &[usize]) -> impl Iterator<Item = usize> + '_ {
+pub(crate) fn contact_rows(contacts: &[usize]) -> impl Iterator<Item = usize> + Clone + '_ {
     contacts.iter().flat_map(|&c| 3 * c..3 * c + 3)
 }
 
@@ -303,18 +314,10 @@ pub(crate) struct ValueBuffers {
 }
 
 impl ValueBuffers {
-    /// Buffers for `part` of a problem of the given form.
-    pub fn new(part: &Part, global: bool) -> Self {
-        let m3 = 3 * part.contacts.len();
-        Self {
-            m: vec![0.0; part.m_entries.len()],
-            h: vec![0.0; part.h_entries.len()],
-            g: vec![0.0; part.g_entries.len()],
-            f: vec![0.0; if global { part.velocities.len() } else { 0 }],
-            w: vec![0.0; m3],
-            b: vec![0.0; part.joints.len()],
-            mu: vec![0.0; part.contacts.len()],
-        }
+    /// Empty buffers: each is sized by the first update that needs it (a scene of many
+    /// islands that is never updated does not pay for them).
+    pub fn new() -> Self {
+        Self::default()
     }
 
     /// The part's share of the global problem `p`'s values, for the fields `given` names
@@ -328,32 +331,49 @@ impl ValueBuffers {
         let joints = p.joints.as_ref();
         let mut out = NewValues::default();
         if given.m.is_some() {
-            gather(p.m.values(), part.m_entries.iter().copied(), &mut self.m);
-            out.m = Some(&self.m);
+            out.m = Some(gather_sized(
+                p.m.values(),
+                part.m_entries.iter().copied(),
+                &mut self.m,
+            ));
         }
         if given.h.is_some() {
-            gather(p.h.values(), part.h_entries.iter().copied(), &mut self.h);
-            out.h = Some(&self.h);
+            out.h = Some(gather_sized(
+                p.h.values(),
+                part.h_entries.iter().copied(),
+                &mut self.h,
+            ));
         }
         if let (Some(j), true) = (joints, given.g.is_some()) {
-            gather(j.g.values(), part.g_entries.iter().copied(), &mut self.g);
-            out.g = Some(&self.g);
+            out.g = Some(gather_sized(
+                j.g.values(),
+                part.g_entries.iter().copied(),
+                &mut self.g,
+            ));
         }
         if let (Some(j), true) = (joints, given.b.is_some()) {
-            gather(&j.b, part.joints.iter().copied(), &mut self.b);
-            out.b = Some(&self.b);
+            out.b = Some(gather_sized(&j.b, part.joints.iter().copied(), &mut self.b));
         }
         if given.f.is_some() {
-            gather(&p.f, part.velocities.iter().copied(), &mut self.f);
-            out.f = Some(&self.f);
+            out.f = Some(gather_sized(
+                &p.f,
+                part.velocities.iter().copied(),
+                &mut self.f,
+            ));
         }
         if given.w.is_some() {
-            gather(&p.w, contact_rows(&part.contacts), &mut self.w);
-            out.w = Some(&self.w);
+            out.w = Some(gather_sized(
+                &p.w,
+                contact_rows(&part.contacts),
+                &mut self.w,
+            ));
         }
         if given.mu.is_some() {
-            gather(&p.mu, part.contacts.iter().copied(), &mut self.mu);
-            out.mu = Some(&self.mu);
+            out.mu = Some(gather_sized(
+                &p.mu,
+                part.contacts.iter().copied(),
+                &mut self.mu,
+            ));
         }
         out
     }
@@ -367,19 +387,40 @@ impl ValueBuffers {
     ) -> NewValues<'a> {
         let mut out = NewValues::default();
         if given.delassus.is_some() {
-            gather(p.w.values(), part.m_entries.iter().copied(), &mut self.m);
-            out.delassus = Some(&self.m);
+            out.delassus = Some(gather_sized(
+                p.w.values(),
+                part.m_entries.iter().copied(),
+                &mut self.m,
+            ));
         }
         if given.q.is_some() {
-            gather(&p.q, contact_rows(&part.contacts), &mut self.w);
-            out.q = Some(&self.w);
+            out.q = Some(gather_sized(
+                &p.q,
+                contact_rows(&part.contacts),
+                &mut self.w,
+            ));
         }
         if given.mu.is_some() {
-            gather(&p.mu, part.contacts.iter().copied(), &mut self.mu);
-            out.mu = Some(&self.mu);
+            out.mu = Some(gather_sized(
+                &p.mu,
+                part.contacts.iter().copied(),
+                &mut self.mu,
+            ));
         }
         out
     }
+}
+
+/// `x[indices]` into `out`, resized to the number of indices (allocates only when it
+/// grows); returns `out`.
+fn gather_sized<'a>(
+    x: &[f64],
+    indices: impl Iterator<Item = usize> + Clone,
+    out: &'a mut Vec<f64>,
+) -> &'a [f64] {
+    out.resize(indices.clone().count(), 0.0);
+    gather(x, indices, out);
+    out
 }
 
 /// Every field named: what an update that replaces the whole problem hands each part

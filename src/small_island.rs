@@ -22,11 +22,15 @@ pub(crate) const SMALL_ISLAND_MAX: usize = DENSE_MAX;
 
 /// True when `p` is an island the direct Newton path takes: some friction (an all
 /// frictionless island is a QP, which the coupled solver solves with one row per contact),
-/// no joints, and small enough for dense factors.
+/// no joints, a symmetric M (the Cholesky factor of the reduction; the coupled solver
+/// takes the others by LU), and small enough for dense factors.
 pub(crate) fn is_small_island(p: &Problem) -> bool {
     let small = 3 * p.n_contacts() <= SMALL_ISLAND_MAX && p.n_velocities() <= SMALL_ISLAND_MAX;
-    let joints = matches!(p, Problem::Global(g) if g.joints.is_some());
-    small && !joints && p.mu().iter().any(|&mu| mu > 0.0)
+    let reducible = match p {
+        Problem::Global(g) => g.joints.is_none() && g.m.is_symmetric(),
+        Problem::Local(_) => true,
+    };
+    small && reducible && p.mu().iter().any(|&mu| mu > 0.0)
 }
 
 /// A global island reduced to its Delassus form.
@@ -47,10 +51,14 @@ impl Reduction {
     fn reduce(&mut self, local: &mut LocalProblem) -> Result<(), Error> {
         let p = &self.problem;
         let (n, m) = (p.n(), p.w.len());
+        // The symmetric part of M: positive definite exactly when M is (as the coupled
+        // solver checks it). An M that an update made asymmetric gets a wrong W here, which
+        // the island's measure (on M itself) rejects, and the coupled solver takes over.
         self.chol.fill(0.0);
         for j in 0..n {
             for (i, x) in p.m.col(j) {
-                self.chol[i + j * n] = x;
+                self.chol[i + j * n] += 0.5 * x;
+                self.chol[j + i * n] += 0.5 * x;
             }
         }
         if !cholesky(&mut self.chol, n) {
@@ -118,8 +126,8 @@ pub(crate) struct SmallIsland {
 
 impl SmallIsland {
     /// Forms the Delassus form of `problem` (an island [`is_small_island`] accepts) and
-    /// the Newton solver on it; Newton takes at most `max_steps` steps per solve.
-    pub(crate) fn new(problem: Problem, max_steps: usize, trace: bool) -> Result<Self, Error> {
+    /// the Newton solver on it.
+    pub(crate) fn new(problem: Problem, trace: bool) -> Result<Self, Error> {
         let t0 = Instant::now();
         let (local, reduction) = match problem {
             Problem::Local(l) => (l, None),
@@ -153,7 +161,7 @@ impl SmallIsland {
             measure,
             tolerance: 0.0,
             time_limit: f64::INFINITY,
-            max_steps,
+            max_steps: 0,
             trace,
             r: vec![0.0; m],
             v: vec![0.0; n],
@@ -178,10 +186,11 @@ impl SmallIsland {
         }
     }
 
-    /// Sets the tolerance and the time limit of the next solves.
-    pub(crate) fn set_limits(&mut self, tolerance: f64, time_limit: f64) {
+    /// Sets the tolerance, the time limit and the Newton steps of the next solves.
+    pub(crate) fn set_limits(&mut self, tolerance: f64, time_limit: f64, max_steps: usize) {
         self.tolerance = tolerance;
         self.time_limit = time_limit;
+        self.max_steps = max_steps;
     }
 
     /// Floors of the error measure (the island's share of a scene's measure).

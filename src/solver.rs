@@ -103,19 +103,16 @@ impl PartSolver {
         whole: &Problem,
         row_of: &[usize],
         settings: &Settings,
+        newton_polish: bool,
     ) -> Result<Self, Error> {
-        let (problem, global) = match whole {
-            Problem::Global(g) => (Problem::Global(part.global_problem(g, row_of)?), true),
-            Problem::Local(l) => (Problem::Local(part.local_problem(l, row_of)?), false),
+        let problem = match whole {
+            Problem::Global(g) => Problem::Global(part.global_problem(g, row_of)?),
+            Problem::Local(l) => Problem::Local(part.local_problem(l, row_of)?),
         };
         let n = problem.n_velocities();
-        let direct = settings.resolved().newton == NewtonUse::Polish && is_small_island(&problem);
+        let direct = newton_polish && is_small_island(&problem);
         let (small, coupled) = if direct {
-            let steps = settings.max_iterations.min(NEWTON_FIRST_STEPS);
-            (
-                Some(SmallIsland::new(problem, steps, settings.trace)?),
-                None,
-            )
+            (Some(SmallIsland::new(problem, settings.trace)?), None)
         } else {
             (None, Some(CoupledSolver::new(problem, settings.clone())?))
         };
@@ -138,7 +135,7 @@ impl PartSolver {
             share,
             stats: Stats::default(),
             trace: Vec::new(),
-            values: ValueBuffers::new(&part, global),
+            values: ValueBuffers::new(),
             r: vec![0.0; 3 * part.contacts.len()],
             v: vec![0.0; n],
             warm: false,
@@ -198,15 +195,29 @@ impl PartSolver {
         if time_left <= 0.0 {
             return Ok(Status::TimeLimit);
         }
+        // The iteration limit holds for the whole solve, refinement rounds and the Newton
+        // steps of the small path included.
+        let left = |stats: &Stats| {
+            self.settings
+                .max_iterations
+                .saturating_sub(stats.iterations)
+        };
         if let Some(small) = &mut self.small {
+            let steps = left(&self.stats).min(NEWTON_FIRST_STEPS);
+            if steps == 0 {
+                return Ok(Status::MaxIterations);
+            }
             let started = t0.elapsed().as_secs_f64();
-            small.set_limits(self.tolerance, time_left);
+            small.set_limits(self.tolerance, time_left, steps);
             let status = small.solve()?;
             let (stats, trace) = (*small.stats(), small.trace());
             add_solve(&mut self.stats, &mut self.trace, &stats, trace, started);
             self.small_solved = status == Status::Solved;
             if self.small_solved || status == Status::TimeLimit {
                 return Ok(status);
+            }
+            if left(&self.stats) == 0 {
+                return Ok(Status::MaxIterations);
             }
             self.stats.newton_fallbacks += 1;
         }
@@ -225,7 +236,7 @@ impl PartSolver {
         if time_left <= 0.0 {
             return Ok(Status::TimeLimit);
         }
-        coupled.set_limits(self.tolerance, time_left);
+        coupled.set_limits(self.tolerance, time_left, left(&self.stats));
         let status = coupled.solve()?;
         add_solve(
             &mut self.stats,
@@ -492,9 +503,11 @@ impl Split {
             Problem::Global(g) => positions(&all.iter().collect::<Vec<_>>(), g.n(), true),
             Problem::Local(l) => positions(&all.iter().collect::<Vec<_>>(), l.q.len(), false),
         };
+        // Small islands go to Newton directly when the settings polish with Newton.
+        let newton_polish = settings.resolved().newton == NewtonUse::Polish;
         let parts = all
             .into_iter()
-            .map(|part| PartSolver::new(part, &whole, &row_of, settings))
+            .map(|part| PartSolver::new(part, &whole, &row_of, settings, newton_polish))
             .collect::<Result<Vec<_>, _>>()?;
         let measure = match &whole {
             Problem::Global(g) => MeasureWork::global(g),

@@ -8,7 +8,7 @@ mod common;
 
 use cadmm::{
     fclib, CscMatrix, GlobalProblem, LocalProblem, NewValues, Problem, Settings, Solution, Solver,
-    Status,
+    Status, VariantChoice,
 };
 
 const TOL: f64 = 1e-8;
@@ -107,6 +107,60 @@ fn threads_do_not_change_a_bit() {
                 Some(b) => assert_eq!(&bits, b, "{threads} threads"),
             }
         }
+    }
+}
+
+/// Small islands (a few boxes on the ground) are solved by Newton on their Delassus form
+/// alone: every island of the pile takes Newton steps only, the assembled solution meets
+/// the tolerance by the independent measure and agrees with ADMM on the same islands (a
+/// named variant); the iteration limit holds for the Newton steps too.
+#[test]
+fn small_islands_are_solved_by_newton_directly() {
+    let scene =
+        Problem::block_diagonal(&vec![read("global/Box_Stacks-i0122-82-5.hdf5"); 3]).unwrap();
+    let (newton, status) = solve(&scene, Settings::default());
+    assert_eq!(status, Status::Solved);
+    let islands = newton.island_stats();
+    assert!(islands.len() > 3);
+    for (k, s) in islands.iter().enumerate() {
+        assert_eq!(s.status, Status::Solved, "island {k}");
+        assert_eq!(
+            s.newton_iterations, s.iterations,
+            "island {k}: not Newton alone"
+        );
+        assert_eq!(s.newton_fallbacks, 0, "island {k}");
+    }
+    let direct = newton.solution();
+    assert!(independent_error(&scene, &direct) <= TOL);
+    let admm = Settings {
+        variant: VariantChoice::from_name("vp-RR-He").unwrap(),
+        ..Settings::default()
+    };
+    let (admm, status) = solve(&scene, admm);
+    assert_eq!(status, Status::Solved);
+    assert!(admm.island_stats().iter().all(|s| s.newton_iterations == 0));
+    let other = admm.solution();
+    assert!(independent_error(&scene, &other) <= TOL);
+    // Boxes on four corners have many impulses for one motion: compare the velocities.
+    let scale = other.v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    let d = direct
+        .v
+        .iter()
+        .zip(&other.v)
+        .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+    eprintln!("velocities: largest {scale:e}, largest difference {d:e}");
+    assert!(
+        d <= 1e-6 * scale,
+        "Newton and ADMM velocities differ by {d:e}"
+    );
+    for cap in 1..=3 {
+        let capped = Settings {
+            max_iterations: cap,
+            ..Settings::default()
+        };
+        let (solver, _) = solve(&scene, capped);
+        assert!(solver.stats().iterations <= cap, "cap {cap}");
+        assert!(solver.island_stats().iter().all(|s| s.iterations <= cap));
     }
 }
 

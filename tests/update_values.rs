@@ -263,8 +263,8 @@ fn values_path_allocates_nothing_and_refuses_bad_values() {
     let during = ALLOCATIONS.load(Ordering::Relaxed) - before;
     assert_eq!(during, 0, "update_values allocated {during} times");
 
-    // The same through islands: each island's share is gathered into buffers kept since
-    // construction.
+    // The same through islands: each island's share is gathered into buffers sized by the
+    // first update and kept.
     let pile = Problem::Global(global(&stack(5, 0.0)));
     let scene = Problem::block_diagonal(&[pile.clone(), pile.clone(), pile]).unwrap();
     let Problem::Global(g) = &scene else {

@@ -77,16 +77,14 @@ impl LocalNewton {
         }
         // Row i of the Jacobian mixes the rows of W of its contact (A_i W): a W entry in
         // row 3i+b fills rows 3i..3i+3 of its column.
-        let mut cols: Vec<Vec<usize>> = vec![Vec::new(); m];
-        for (c, col) in cols.iter_mut().enumerate() {
+        let pattern = Pattern::from_column_rows(m, |c, col| {
             for (row, _) in w.col(c) {
                 let i = row / 3;
                 col.extend([3 * i, 3 * i + 1, 3 * i + 2]);
             }
             let j = c / 3;
             col.extend([3 * j, 3 * j + 1, 3 * j + 2]);
-        }
-        let pattern = Pattern::from_columns(m, cols);
+        });
         let mut w_dest = Vec::with_capacity(w.nnz());
         for c in 0..m {
             for (row, _) in w.col(c) {

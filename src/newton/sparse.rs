@@ -24,15 +24,25 @@ pub struct Pattern {
 
 impl Pattern {
     /// Builds the pattern from the row lists of each column (unsorted, duplicates allowed).
-    pub fn from_columns(n: usize, mut cols: Vec<Vec<usize>>) -> Self {
+    pub fn from_columns(n: usize, cols: Vec<Vec<usize>>) -> Self {
         debug_assert_eq!(cols.len(), n);
+        Self::from_column_rows(n, |c, out| out.extend_from_slice(&cols[c]))
+    }
+
+    /// Builds the pattern one column at a time: `rows(c, out)` pushes the rows of column
+    /// `c` (unsorted, duplicates allowed). One scratch column, not a vector per column:
+    /// small islands build many of these.
+    pub fn from_column_rows(n: usize, mut rows: impl FnMut(usize, &mut Vec<usize>)) -> Self {
         let mut colptr = Vec::with_capacity(n + 1);
         let mut rowind = Vec::new();
+        let mut col = Vec::new();
         colptr.push(0);
-        for c in cols.iter_mut() {
-            c.sort_unstable();
-            c.dedup();
-            rowind.extend_from_slice(c);
+        for c in 0..n {
+            col.clear();
+            rows(c, &mut col);
+            col.sort_unstable();
+            col.dedup();
+            rowind.extend_from_slice(&col);
             colptr.push(rowind.len());
         }
         Self { n, colptr, rowind }

@@ -8,7 +8,7 @@
 
 use crate::csc::CscMatrix;
 use crate::error::Error;
-use crate::problem::{GlobalProblem, LocalProblem, NewValues};
+use crate::problem::{GlobalProblem, LocalProblem, NewValues, Problem};
 
 /// Disjoint sets over `0..n` (union by size, path halving).
 struct DisjointSets {
@@ -283,6 +283,14 @@ impl Part {
             self.g_entries = g_entries;
         }
         Ok(sub)
+    }
+
+    /// The sub-problem of either form on this part; fills the entry maps.
+    pub fn sub_problem(&mut self, whole: &Problem, row_of: &[usize]) -> Result<Problem, Error> {
+        Ok(match whole {
+            Problem::Global(g) => Problem::Global(self.global_problem(g, row_of)?),
+            Problem::Local(l) => Problem::Local(self.local_problem(l, row_of)?),
+        })
     }
 
     /// The sub-problem of a local problem on this part; fills the entry map. `row_of`:

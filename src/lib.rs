@@ -33,6 +33,7 @@ pub mod fclib;
 /// The C API (`include/cadmm.h`): opaque handles, result codes, panic boundary. From Rust,
 /// use the types re-exported at the crate root instead.
 pub mod ffi;
+mod free_motion;
 mod islands;
 mod linsys;
 pub mod measure;

@@ -145,22 +145,51 @@ pub fn global_error_with(
         work.scales.joint = scale;
         joint_error = relative(res.sqrt(), scale.max(work.floors.joint));
     }
-    let mut eq = 0.0;
-    for i in 0..p.n() {
-        eq += (-work.mv[i] + work.hr[i] + p.f[i]).powi(2);
-    }
-    let scale = norm2(&p.f).max(norm2(&work.mv)).max(norm2(&work.hr));
-    work.scales.equation = scale;
-    let e1 = relative(eq.sqrt(), scale.max(work.floors.equation));
     work.u.copy_from_slice(&p.w);
     p.h.mul_t_vec(1.0, v, 1.0, &mut work.u);
-    let scale = norm2(&work.u).max(norm2(r));
-    work.scales.contact = scale;
-    let e2 = relative(
-        complementarity_residual(r, &work.u, &p.mu),
-        scale.max(work.floors.contact),
-    );
-    finite_or_infinite(e1 + e2 + joint_error)
+    let terms = GlobalTerms {
+        f: &p.f,
+        mv: &work.mv,
+        hr: &work.hr,
+        u: &work.u,
+        r,
+        mu: &p.mu,
+    };
+    finite_or_infinite(terms.error(work.floors, &mut work.scales) + joint_error)
+}
+
+/// The products the equation and contact terms of the global measure are made of, at
+/// `(r, v)`: `mv = M v`, `hr = H r (+ G lambda)`, `u = H^T v + w`. Whoever computes them
+/// (sparse products here, dense ones for a small island) gets the one formula.
+pub(crate) struct GlobalTerms<'a> {
+    pub f: &'a [f64],
+    pub mv: &'a [f64],
+    pub hr: &'a [f64],
+    pub u: &'a [f64],
+    pub r: &'a [f64],
+    pub mu: &'a [f64],
+}
+
+impl GlobalTerms<'_> {
+    /// `||-M v + H r + f|| / max(||f||, ||M v||, ||H r||) + ||r - P_K(r - (u + Phi(u)))|| /
+    /// max(||u||, ||r||)`, denominators floored by `floors`; records the denominators in
+    /// `scales`.
+    pub fn error(&self, floors: Floors, scales: &mut Scales) -> f64 {
+        let mut eq = 0.0;
+        for ((mv, hr), f) in self.mv.iter().zip(self.hr).zip(self.f) {
+            eq += (-mv + hr + f).powi(2);
+        }
+        let scale = norm2(self.f).max(norm2(self.mv)).max(norm2(self.hr));
+        scales.equation = scale;
+        let e1 = relative(eq.sqrt(), scale.max(floors.equation));
+        let scale = norm2(self.u).max(norm2(self.r));
+        scales.contact = scale;
+        let e2 = relative(
+            complementarity_residual(self.r, self.u, self.mu),
+            scale.max(floors.contact),
+        );
+        finite_or_infinite(e1 + e2)
+    }
 }
 
 /// Overflowing products make `inf / inf`: such an error is infinite, never NaN.

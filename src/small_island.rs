@@ -1,96 +1,90 @@
 //! Small contact islands solved directly: semismooth Newton on the island's Delassus form
 //! `u = W r + q` (docs/algorithms.md §12). A global island's `W = H^T M^-1 H` and
 //! `q = H^T M^-1 f + w` are formed densely from a Cholesky factor of M, and every iterate
-//! is judged by the island's own global measure at `v = M^-1 (H r + f)`. An island of a box
-//! on the ground (6 velocities, 4 contacts) costs a few microseconds this way, where
-//! building its ADMM form and its global Newton system costs tens. When Newton does not
-//! reach the tolerance, the island's coupled solver (ADMM and Newton) takes over.
+//! is judged by the island's own global measure at `v = M^-1 (H r + f)`. When Newton does
+//! not reach the tolerance, the island's coupled solver (ADMM and Newton) takes over.
+//!
+//! A scene may hold thousands of such islands (a box on the ground: 6 velocities, 4
+//! contacts), so an island keeps only its dense data, read straight from the whole
+//! problem, in one array; the Newton solver, its problem and the measure's vectors live in
+//! a [`SmallWork`] that every island of one size shares (one per thread).
 
-use crate::csc::CscMatrix;
+use crate::csc::{CscMatrix, SYMMETRY_TOL};
 use crate::error::{Error, Status};
+use crate::islands::{contact_rows, Part};
 use crate::linsys::dense::{cholesky, cholesky_solve};
 use crate::linsys::DENSE_MAX;
-use crate::measure::{global_error_with, local_error_with, Floors, MeasureWork};
+use crate::measure::{local_error_with, Floors, GlobalTerms, MeasureWork, Scales};
 use crate::newton::LocalNewton;
-use crate::problem::{GlobalProblem, LocalProblem, NewValues, Problem};
+use crate::problem::{LocalProblem, Problem};
 use crate::solver::Solution;
 use crate::stats::{Phase, Stats, TracePoint};
 use std::time::{Duration, Instant};
 
 /// An island of at most this many contact rows and velocities may be solved directly.
-pub(crate) const SMALL_ISLAND_MAX: usize = DENSE_MAX;
+const SMALL_ISLAND_MAX: usize = DENSE_MAX;
 
-/// True when `p` is an island the direct Newton path takes: some friction (an all
-/// frictionless island is a QP, which the coupled solver solves with one row per contact),
-/// no joints, a symmetric M (the Cholesky factor of the reduction; the coupled solver
-/// takes the others by LU), and small enough for dense factors.
-pub(crate) fn is_small_island(p: &Problem) -> bool {
-    let small = 3 * p.n_contacts() <= SMALL_ISLAND_MAX && p.n_velocities() <= SMALL_ISLAND_MAX;
-    let reducible = match p {
-        Problem::Global(g) => g.joints.is_none() && g.m.is_symmetric(),
-        Problem::Local(_) => true,
-    };
-    small && reducible && p.mu().iter().any(|&mu| mu > 0.0)
+/// Where each piece of an island's data sits in its one array (`n` velocities, `m = 3 nc`
+/// contact rows; a local island has `n = 0`).
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    n: usize,
+    m: usize,
 }
 
-/// A global island reduced to its Delassus form.
-struct Reduction {
-    problem: GlobalProblem,
-    /// Column-major Cholesky factor of M (`n x n`).
-    chol: Vec<f64>,
-    /// `M^-1 H`, column-major `n x 3nc`.
-    minv_h: Vec<f64>,
-    /// `M^-1 f`.
-    minv_f: Vec<f64>,
-    /// `W`, column-major, before it is copied into the local problem.
-    w: Vec<f64>,
+impl Layout {
+    /// Column-major `W` (`m x m`), then `q`, `mu`, and for a global island `M` (`n x n`),
+    /// its Cholesky factor, `H` (`n x m`), `M^-1 H`, `f`, `M^-1 f`, `w`.
+    fn len(&self) -> usize {
+        let (n, m) = (self.n, self.m);
+        m * m + m + m / 3 + 2 * n * n + 2 * n * m + 2 * n + m
+    }
+    fn ranges(&self) -> [std::ops::Range<usize>; 10] {
+        let (n, m) = (self.n, self.m);
+        let sizes = [m * m, m, m / 3, n * n, n * n, n * m, n * m, n, n, m];
+        let mut at = 0;
+        sizes.map(|len| {
+            at += len;
+            at - len..at
+        })
+    }
 }
 
-impl Reduction {
-    /// Forms `W` and `q` of `local` from the problem's current values (no allocation).
-    fn reduce(&mut self, local: &mut LocalProblem) -> Result<(), Error> {
-        let p = &self.problem;
-        let (n, m) = (p.n(), p.w.len());
-        // The symmetric part of M: positive definite exactly when M is (as the coupled
-        // solver checks it). An M that an update made asymmetric gets a wrong W here, which
-        // the island's measure (on M itself) rejects, and the coupled solver takes over.
-        self.chol.fill(0.0);
-        for j in 0..n {
-            for (i, x) in p.m.col(j) {
-                self.chol[i + j * n] += 0.5 * x;
-                self.chol[j + i * n] += 0.5 * x;
-            }
+/// An island's data, borrowed out of its array (the Cholesky factor is only used by
+/// [`SmallIsland::reduce`]).
+struct Data<'a> {
+    w: &'a [f64],
+    q: &'a [f64],
+    mu: &'a [f64],
+    m_mat: &'a [f64],
+    h: &'a [f64],
+    minv_h: &'a [f64],
+    f: &'a [f64],
+    minv_f: &'a [f64],
+    w_global: &'a [f64],
+}
+
+impl<'a> Data<'a> {
+    fn new(layout: Layout, data: &'a [f64]) -> Self {
+        let [w, q, mu, m_mat, _, h, minv_h, f, minv_f, w_global] =
+            layout.ranges().map(|r| &data[r]);
+        Self {
+            w,
+            q,
+            mu,
+            m_mat,
+            h,
+            minv_h,
+            f,
+            minv_f,
+            w_global,
         }
-        if !cholesky(&mut self.chol, n) {
-            return Err(Error::NotPositiveDefinite { field: "M" });
-        }
-        self.minv_h.fill(0.0);
-        for c in 0..m {
-            let col = &mut self.minv_h[c * n..(c + 1) * n];
-            for (i, x) in p.h.col(c) {
-                col[i] = x;
-            }
-            cholesky_solve(&self.chol, n, col);
-        }
-        self.minv_f.copy_from_slice(&p.f);
-        cholesky_solve(&self.chol, n, &mut self.minv_f);
-        for j in 0..m {
-            let minv_hj = &self.minv_h[j * n..(j + 1) * n];
-            for i in 0..m {
-                self.w[i + j * m] = p.h.col(i).map(|(k, x)| x * minv_hj[k]).sum();
-            }
-        }
-        local.w.set_values("W", &self.w)?;
-        local.q.copy_from_slice(&p.w);
-        p.h.mul_t_vec(1.0, &self.minv_f, 1.0, &mut local.q);
-        local.mu.copy_from_slice(&p.mu);
-        Ok(())
     }
 
     /// `v = M^-1 (H r + f)`.
     fn velocities(&self, r: &[f64], v: &mut [f64]) {
         let n = v.len();
-        v.copy_from_slice(&self.minv_f);
+        v.copy_from_slice(self.minv_f);
         for (c, &rc) in r.iter().enumerate() {
             if rc != 0.0 {
                 for (vi, x) in v.iter_mut().zip(&self.minv_h[c * n..(c + 1) * n]) {
@@ -99,20 +93,101 @@ impl Reduction {
             }
         }
     }
+
+    /// `u = H^T v + w` (global island).
+    fn global_u(&self, v: &[f64], u: &mut [f64]) {
+        let n = v.len();
+        for (c, uc) in u.iter_mut().enumerate() {
+            let col = &self.h[c * n..(c + 1) * n];
+            *uc = self.w_global[c] + col.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
+        }
+    }
 }
 
-/// Solves one small island by Newton on its Delassus form.
-pub(crate) struct SmallIsland {
-    /// The Delassus form (a local island's own problem).
+/// The columns `cols` of `a` into the column-major `out` of `rows` rows, rows renumbered
+/// by `row_of`.
+fn scatter_columns(
+    a: &CscMatrix,
+    cols: impl Iterator<Item = usize>,
+    row_of: &[usize],
+    rows: usize,
+    out: &mut [f64],
+) {
+    out.fill(0.0);
+    for (k, j) in cols.enumerate() {
+        let col = &mut out[k * rows..(k + 1) * rows];
+        for (i, x) in a.col(j) {
+            col[row_of[i]] = x;
+        }
+    }
+}
+
+/// `y = A x` for a column-major `A` with `y.len()` rows.
+fn dense_mul(a: &[f64], x: &[f64], y: &mut [f64]) {
+    let rows = y.len();
+    y.fill(0.0);
+    for (j, &xj) in x.iter().enumerate() {
+        if xj != 0.0 {
+            for (yi, aij) in y.iter_mut().zip(&a[j * rows..(j + 1) * rows]) {
+                *yi += aij * xj;
+            }
+        }
+    }
+}
+
+/// The Newton solver and the problem it runs on for islands of one size: each island's
+/// values are copied in before its solve.
+struct Sized {
     local: LocalProblem,
-    /// A global island and its reduction to `local`.
-    reduction: Option<Box<Reduction>>,
     newton: LocalNewton,
     measure: MeasureWork,
-    tolerance: f64,
-    time_limit: f64,
-    max_steps: usize,
-    trace: bool,
+}
+
+/// Work space of the small islands one thread solves.
+#[derive(Default)]
+pub(crate) struct SmallWork {
+    /// By number of contacts.
+    sized: Vec<Option<Box<Sized>>>,
+    mv: Vec<f64>,
+    hr: Vec<f64>,
+    u: Vec<f64>,
+    v: Vec<f64>,
+}
+
+impl SmallWork {
+    /// The solver for islands of `nc` contacts out of `sized`, built on first use (on a
+    /// dense pattern, so that any island of that size fits it).
+    fn sized(sized: &mut Vec<Option<Box<Sized>>>, nc: usize) -> Result<&mut Box<Sized>, Error> {
+        if sized.len() <= nc {
+            sized.resize_with(nc + 1, || None);
+        }
+        if sized[nc].is_none() {
+            let m = 3 * nc;
+            let colptr = (0..=m).map(|j| j * m).collect();
+            let rowind = (0..m * m).map(|k| k % m).collect();
+            let mut values = vec![0.0; m * m];
+            for i in 0..m {
+                values[i + i * m] = 1.0;
+            }
+            let w = CscMatrix::new("W", m, m, colptr, rowind, values)?;
+            let local = LocalProblem::new(w, vec![0.0; m], vec![0.0; nc])?;
+            let newton = LocalNewton::new(&local)?;
+            let measure = MeasureWork::local(&local);
+            sized[nc] = Some(Box::new(Sized {
+                local,
+                newton,
+                measure,
+            }));
+        }
+        Ok(sized[nc].as_mut().expect("built above"))
+    }
+}
+
+/// One small island: its dense data and its iterate.
+pub(crate) struct SmallIsland {
+    layout: Layout,
+    global: bool,
+    data: Vec<f64>,
     /// The iterate: impulses, and the velocities they give (global form).
     r: Vec<f64>,
     v: Vec<f64>,
@@ -120,70 +195,152 @@ pub(crate) struct SmallIsland {
     /// The error of the last values taken, when they cannot be solved (M not positive
     /// definite); solves fail with it until an update succeeds.
     broken: Option<Error>,
+    floors: Floors,
+    tolerance: f64,
+    time_limit: f64,
+    max_steps: usize,
+    trace: bool,
     stats: Stats,
     last_trace: Option<TracePoint>,
 }
 
 impl SmallIsland {
-    /// Forms the Delassus form of `problem` (an island [`is_small_island`] accepts) and
-    /// the Newton solver on it.
-    pub(crate) fn new(problem: Problem, trace: bool) -> Result<Self, Error> {
+    /// The island `part` of `whole` (`row_of`: the positions of [`crate::islands::positions`])
+    /// when the direct path takes it: some friction (an all-frictionless island is a QP,
+    /// which the coupled solver solves with one row per contact), no joints, a symmetric M,
+    /// and small enough for dense factors. `None` otherwise.
+    pub(crate) fn new(
+        whole: &Problem,
+        part: &Part,
+        row_of: &[usize],
+        trace: bool,
+    ) -> Result<Option<Self>, Error> {
         let t0 = Instant::now();
-        let (local, reduction) = match problem {
-            Problem::Local(l) => (l, None),
-            Problem::Global(g) => {
-                let (n, m) = (g.n(), g.w.len());
-                // Full dense pattern, so that new values never change it.
-                let colptr = (0..=m).map(|j| j * m).collect();
-                let rowind = (0..m * m).map(|k| k % m).collect();
-                let w = CscMatrix::new("W", m, m, colptr, rowind, vec![0.0; m * m])?;
-                let mut local = LocalProblem::new(w, vec![0.0; m], g.mu.clone())?;
-                let mut reduction = Reduction {
-                    chol: vec![0.0; n * n],
-                    minv_h: vec![0.0; n * m],
-                    minv_f: vec![0.0; n],
-                    w: vec![0.0; m * m],
-                    problem: g,
-                };
-                reduction.reduce(&mut local)?;
-                (local, Some(Box::new(reduction)))
-            }
+        let (nc, n) = (part.contacts.len(), part.velocities.len());
+        let frictional = part.contacts.iter().any(|&c| whole.mu()[c] > 0.0);
+        let joints = !part.joints.is_empty();
+        if 3 * nc > SMALL_ISLAND_MAX || n > SMALL_ISLAND_MAX || !frictional || joints {
+            return Ok(None);
+        }
+        let global = matches!(whole, Problem::Global(_));
+        let layout = Layout {
+            n: if global { n } else { 0 },
+            m: 3 * nc,
         };
-        let newton = LocalNewton::new(&local)?;
-        let measure = match &reduction {
-            Some(red) => MeasureWork::global(&red.problem),
-            None => MeasureWork::local(&local),
-        };
-        let n = reduction.as_ref().map_or(0, |red| red.problem.n());
-        let m = local.q.len();
-        Ok(Self {
-            newton,
-            measure,
+        let mut island = Self {
+            layout,
+            global,
+            data: vec![0.0; layout.len()],
+            r: vec![0.0; layout.m],
+            v: vec![0.0; layout.n],
+            warm: false,
+            broken: None,
+            floors: Floors::default(),
             tolerance: 0.0,
             time_limit: f64::INFINITY,
             max_steps: 0,
             trace,
-            r: vec![0.0; m],
-            v: vec![0.0; n],
-            warm: false,
-            broken: None,
             stats: Stats {
-                setup_seconds: t0.elapsed().as_secs_f64(),
-                rows: m,
+                rows: layout.m,
                 ..Stats::default()
             },
             last_trace: None,
-            local,
-            reduction,
-        })
+        };
+        island.read(whole, part, row_of);
+        if global && !island.m_is_symmetric() {
+            return Ok(None);
+        }
+        island.reduce()?;
+        island.stats.setup_seconds = t0.elapsed().as_secs_f64();
+        Ok(Some(island))
     }
 
-    /// The island's problem, for building its coupled solver.
-    pub(crate) fn problem(&self) -> Problem {
-        match &self.reduction {
-            Some(red) => Problem::Global(red.problem.clone()),
-            None => Problem::Local(self.local.clone()),
+    /// Copies the island's values out of the whole problem into the dense data.
+    fn read(&mut self, whole: &Problem, part: &Part, row_of: &[usize]) {
+        let Layout { n, m } = self.layout;
+        let [w, q, mu, m_mat, _, h, _, f, _, w_global] = self.layout.ranges();
+        let d = &mut self.data;
+        match whole {
+            Problem::Global(g) => {
+                let velocities = part.velocities.iter().copied();
+                scatter_columns(&g.m, velocities, row_of, n, &mut d[m_mat]);
+                scatter_columns(&g.h, contact_rows(&part.contacts), row_of, n, &mut d[h]);
+                for (dst, i) in d[f].iter_mut().zip(&part.velocities) {
+                    *dst = g.f[*i];
+                }
+                for (dst, i) in d[w_global].iter_mut().zip(contact_rows(&part.contacts)) {
+                    *dst = g.w[i];
+                }
+            }
+            Problem::Local(l) => {
+                scatter_columns(&l.w, contact_rows(&part.contacts), row_of, m, &mut d[w]);
+                for (dst, i) in d[q].iter_mut().zip(contact_rows(&part.contacts)) {
+                    *dst = l.q[i];
+                }
+            }
         }
+        for (dst, c) in d[mu].iter_mut().zip(&part.contacts) {
+            *dst = whole.mu()[*c];
+        }
+    }
+
+    /// True when the island's M is symmetric (to the tolerance the coupled solver uses).
+    fn m_is_symmetric(&self) -> bool {
+        let n = self.layout.n;
+        let m = &self.data[self.layout.ranges()[3].clone()];
+        let scale = m.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        (0..n).all(|j| (0..j).all(|i| (m[i + j * n] - m[j + i * n]).abs() <= SYMMETRY_TOL * scale))
+    }
+
+    /// A global island's Delassus form: `chol(M)`, `M^-1 H`, `M^-1 f`, `W`, `q`.
+    fn reduce(&mut self) -> Result<(), Error> {
+        if !self.global {
+            return Ok(());
+        }
+        let Layout { n, m } = self.layout;
+        let [w, q, _, m_mat, chol, h, minv_h, f, minv_f, w_global] = self.layout.ranges();
+        let d = &mut self.data;
+        d.copy_within(m_mat, chol.start);
+        if !cholesky(&mut d[chol.clone()], n) {
+            return Err(Error::NotPositiveDefinite { field: "M" });
+        }
+        d.copy_within(h.clone(), minv_h.start);
+        d.copy_within(f, minv_f.start);
+        let (head, tail) = d.split_at_mut(minv_h.start);
+        let factor = &head[chol];
+        for c in 0..m {
+            cholesky_solve(factor, n, &mut tail[c * n..(c + 1) * n]);
+        }
+        let minv_f_at = minv_f.start - minv_h.start;
+        cholesky_solve(factor, n, &mut tail[minv_f_at..minv_f_at + n]);
+        // W = H^T (M^-1 H), q = H^T (M^-1 f) + w.
+        for j in 0..m {
+            for i in 0..m {
+                let (hi, mj) = (&d[h.start + i * n..][..n], &d[minv_h.start + j * n..][..n]);
+                d[w.start + i + j * m] = hi.iter().zip(mj).map(|(a, b)| a * b).sum();
+            }
+        }
+        for i in 0..m {
+            let (hi, mf) = (&d[h.start + i * n..][..n], &d[minv_f.start..][..n]);
+            d[q.start + i] =
+                d[w_global.start + i] + hi.iter().zip(mf).map(|(a, b)| a * b).sum::<f64>();
+        }
+        Ok(())
+    }
+
+    /// Takes the whole problem's current values (after an update on the same pattern). The
+    /// next solve starts cold unless a warm start follows.
+    pub(crate) fn take_values(
+        &mut self,
+        whole: &Problem,
+        part: &Part,
+        row_of: &[usize],
+    ) -> Result<(), Error> {
+        self.warm = false;
+        self.read(whole, part, row_of);
+        let done = self.reduce();
+        self.broken = done.as_ref().err().cloned();
+        done
     }
 
     /// Sets the tolerance, the time limit and the Newton steps of the next solves.
@@ -195,23 +352,7 @@ impl SmallIsland {
 
     /// Floors of the error measure (the island's share of a scene's measure).
     pub(crate) fn set_measure_floors(&mut self, floors: Floors) {
-        self.measure.floors = floors;
-    }
-
-    /// Takes new values on the same pattern and forms the Delassus form again (no
-    /// allocation). The next solve starts cold unless a warm start follows.
-    pub(crate) fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
-        self.warm = false;
-        let done = match &mut self.reduction {
-            Some(red) => red
-                .problem
-                .set_values(values)
-                .and_then(|()| red.reduce(&mut self.local)),
-            None => self.local.set_values(values),
-        };
-        self.broken = done.as_ref().err().cloned();
-        self.newton.take_values(&self.local);
-        done
+        self.floors = floors;
     }
 
     /// Starts the next solve from impulses `r` (velocities follow from them).
@@ -222,7 +363,7 @@ impl SmallIsland {
 
     /// Newton from the warm start or from zero; `Solved` when the island's measure meets
     /// the tolerance, otherwise the status Newton stopped with (the best iterate is kept).
-    pub(crate) fn solve(&mut self) -> Result<Status, Error> {
+    pub(crate) fn solve(&mut self, work: &mut SmallWork) -> Result<Status, Error> {
         let t0 = Instant::now();
         if let Some(e) = &self.broken {
             return Err(e.clone());
@@ -233,33 +374,64 @@ impl SmallIsland {
         self.warm = false;
         let deadline =
             t0.checked_add(Duration::try_from_secs_f64(self.time_limit).unwrap_or(Duration::MAX));
-        let Self {
-            local,
-            reduction,
-            measure,
-            newton,
-            r,
+        let Layout { n, m } = self.layout;
+        let data = Data::new(self.layout, &self.data);
+        let SmallWork {
+            sized,
+            mv,
+            hr,
+            u,
             v,
-            ..
-        } = self;
-        let (local, reduction) = (&*local, &*reduction);
-        let mut judge = |r: &[f64]| match reduction {
-            Some(red) => {
-                red.velocities(r, v);
-                global_error_with(&red.problem, r, v, &[], measure)
+        } = work;
+        for x in [&mut *mv, &mut *hr, &mut *v] {
+            x.resize(n, 0.0);
+        }
+        u.resize(m, 0.0);
+        let s = SmallWork::sized(sized, m / 3)?;
+        s.local.w.set_values("W", data.w)?;
+        s.local.q.copy_from_slice(data.q);
+        s.local.mu.copy_from_slice(data.mu);
+        s.newton.take_values(&s.local);
+        let Sized {
+            local,
+            newton,
+            measure,
+        } = &mut **s;
+        let local: &LocalProblem = local;
+        let (floors, global) = (self.floors, self.global);
+        measure.floors = floors;
+        // A global island is judged by its own global measure at v = M^-1 (H r + f).
+        let mut judge = |r: &[f64]| {
+            if !global {
+                return local_error_with(local, r, measure);
             }
-            None => local_error_with(local, r, measure),
+            if !r.iter().all(|x| x.is_finite()) {
+                return f64::INFINITY;
+            }
+            data.velocities(r, v);
+            dense_mul(data.m_mat, v, mv);
+            dense_mul(data.h, r, hr);
+            data.global_u(v, u);
+            let terms = GlobalTerms {
+                f: data.f,
+                mv,
+                hr,
+                u,
+                r,
+                mu: data.mu,
+            };
+            terms.error(floors, &mut Scales::default())
         };
         let out = newton.solve_measured(
             local,
-            r,
+            &mut self.r,
             self.tolerance,
             self.max_steps,
             deadline,
             &mut judge,
         )?;
-        if let Some(red) = &self.reduction {
-            red.velocities(&self.r, &mut self.v);
+        if self.global {
+            data.velocities(&self.r, &mut self.v);
         }
         let status = if out.converged() {
             Status::Solved
@@ -295,12 +467,16 @@ impl SmallIsland {
 
     /// The last iterate.
     pub(crate) fn solution(&self) -> Solution {
-        let mut u = self.local.q.clone();
-        self.local.w.mul_vec(1.0, &self.r, 1.0, &mut u);
-        if let Some(red) = &self.reduction {
+        let data = Data::new(self.layout, &self.data);
+        let mut u = vec![0.0; self.layout.m];
+        if self.global {
             // The global form's u from its own data, as its measure computes it.
-            u.copy_from_slice(&red.problem.w);
-            red.problem.h.mul_t_vec(1.0, &self.v, 1.0, &mut u);
+            data.global_u(&self.v, &mut u);
+        } else {
+            dense_mul(data.w, &self.r, &mut u);
+            for (ui, qi) in u.iter_mut().zip(data.q) {
+                *ui += qi;
+            }
         }
         Solution {
             r: self.r.clone(),

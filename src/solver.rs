@@ -5,6 +5,7 @@
 
 use crate::coupled::CoupledSolver;
 use crate::error::{Error, Status};
+use crate::free_motion::FreeMotion;
 use crate::islands::{
     contact_rows, gather, partition_global, partition_local, positions, Part, Partition,
     ValueBuffers, EVERY_FIELD,
@@ -12,7 +13,7 @@ use crate::islands::{
 use crate::measure::{global_error_with, local_error_with, Floors, MeasureWork, Scales};
 use crate::problem::{NewValues, Problem};
 use crate::settings::{NewtonUse, Resolved, Settings, ISLAND_ROUNDS, NEWTON_FIRST_STEPS};
-use crate::small_island::{is_small_island, SmallIsland};
+use crate::small_island::{SmallIsland, SmallWork};
 use crate::stats::{Stats, TracePoint};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -67,6 +68,19 @@ struct Split {
     /// The part whose trace and residuals the solver reports (the one that needed the
     /// most iterations in the last solve; none without parts).
     slowest: Option<usize>,
+    /// Where each velocity (global) or contact row (local) sits in its part.
+    row_of: Vec<usize>,
+    /// Work space of the small islands, one per thread that solves them.
+    work: Vec<SmallWork>,
+}
+
+/// What every part's solve reads: the whole problem (a small island that falls back builds
+/// its sub-problem from it), the positions of [`positions`], and the clock.
+struct SolveContext<'a> {
+    whole: &'a Problem,
+    row_of: &'a [usize],
+    t0: Instant,
+    time_limit: f64,
 }
 
 /// One part and its solvers: a small island is solved directly by Newton on its Delassus
@@ -74,6 +88,8 @@ struct Split {
 /// and is the only one of the other parts.
 struct PartSolver {
     part: Part,
+    /// The contact-free part, when its blocks of M are small.
+    free: Option<FreeMotion>,
     small: Option<SmallIsland>,
     coupled: Option<CoupledSolver>,
     /// The settings the coupled solver is built with.
@@ -105,17 +121,22 @@ impl PartSolver {
         settings: &Settings,
         newton_polish: bool,
     ) -> Result<Self, Error> {
-        let problem = match whole {
-            Problem::Global(g) => Problem::Global(part.global_problem(g, row_of)?),
-            Problem::Local(l) => Problem::Local(part.local_problem(l, row_of)?),
+        let free = match whole {
+            Problem::Global(g) if part.contacts.is_empty() => FreeMotion::new(g, &part, row_of)?,
+            _ => None,
         };
-        let n = problem.n_velocities();
-        let direct = newton_polish && is_small_island(&problem);
-        let (small, coupled) = if direct {
-            (Some(SmallIsland::new(problem, settings.trace)?), None)
-        } else {
-            (None, Some(CoupledSolver::new(problem, settings.clone())?))
+        let small = match newton_polish && free.is_none() {
+            true => SmallIsland::new(whole, &part, row_of, settings.trace)?,
+            false => None,
         };
+        let coupled = match (&free, &small) {
+            (Some(_), _) | (_, Some(_)) => None,
+            (None, None) => Some(CoupledSolver::new(
+                part.sub_problem(whole, row_of)?,
+                settings.clone(),
+            )?),
+        };
+        let n = part.velocities.len();
         let fraction = |k: usize, total: usize| k as f64 / total.max(1) as f64;
         let share = match whole {
             Problem::Global(g) => [
@@ -139,6 +160,7 @@ impl PartSolver {
             r: vec![0.0; 3 * part.contacts.len()],
             v: vec![0.0; n],
             warm: false,
+            free,
             small,
             coupled,
             settings: settings.clone(),
@@ -158,6 +180,9 @@ impl PartSolver {
             contact: whole.contact * contacts,
             joint: whole.joint * joints,
         };
+        if let Some(f) = &mut self.free {
+            f.set_measure_floors(self.floors);
+        }
         if let Some(s) = &mut self.small {
             s.set_measure_floors(self.floors);
         }
@@ -181,19 +206,28 @@ impl PartSolver {
     /// Solves with the part's tolerance and what is left of the time limit, and adds the
     /// solve to the part's statistics and trace: the small path first, the coupled solver
     /// (built now if need be, and starting as the warm start asked) when it fails.
-    fn solve(&mut self, t0: Instant, time_limit: f64) {
-        self.outcome = self.solve_once(t0, time_limit);
+    fn solve(&mut self, at: &SolveContext, work: &mut SmallWork) {
+        self.outcome = self.solve_once(at, work);
         if let Ok(status) = self.outcome {
             // A part the time limit left no time for did not run.
             self.stats.status = status;
         }
     }
 
-    fn solve_once(&mut self, t0: Instant, time_limit: f64) -> Result<Status, Error> {
+    fn solve_once(&mut self, at: &SolveContext, work: &mut SmallWork) -> Result<Status, Error> {
+        let (t0, time_limit) = (at.t0, at.time_limit);
         let warm = std::mem::replace(&mut self.warm, false);
         let time_left = time_limit - t0.elapsed().as_secs_f64();
         if time_left <= 0.0 {
             return Ok(Status::TimeLimit);
+        }
+        if let Some(free) = &mut self.free {
+            let status = free.solve()?;
+            self.stats = Stats {
+                setup_seconds: self.stats.setup_seconds,
+                ..*free.stats()
+            };
+            return Ok(status);
         }
         // The iteration limit holds for the whole solve, refinement rounds and the Newton
         // steps of the small path included.
@@ -209,7 +243,7 @@ impl PartSolver {
             }
             let started = t0.elapsed().as_secs_f64();
             small.set_limits(self.tolerance, time_left, steps);
-            let status = small.solve()?;
+            let status = small.solve(work)?;
             let (stats, trace) = (*small.stats(), small.trace());
             add_solve(&mut self.stats, &mut self.trace, &stats, trace, started);
             self.small_solved = status == Status::Solved;
@@ -222,8 +256,8 @@ impl PartSolver {
             self.stats.newton_fallbacks += 1;
         }
         if self.coupled.is_none() {
-            let small = self.small.as_ref().expect("a part has one of its solvers");
-            let mut coupled = CoupledSolver::new(small.problem(), self.settings.clone())?;
+            let problem = self.part.sub_problem(at.whole, at.row_of)?;
+            let mut coupled = CoupledSolver::new(problem, self.settings.clone())?;
             coupled.set_measure_floors(self.floors);
             if warm {
                 coupled.warm_start(&self.r, None)?;
@@ -250,6 +284,9 @@ impl PartSolver {
 
     /// The part's solution: that of the solver that solved last.
     fn solution(&self) -> Solution {
+        if let Some(f) = &self.free {
+            return f.solution();
+        }
         match (&self.small, &self.coupled) {
             (Some(s), _) if self.small_solved => s.solution(),
             (_, Some(c)) => c.solution(),
@@ -262,7 +299,8 @@ impl PartSolver {
     fn reset(&mut self) {
         let setup = |s: &Stats| s.setup_seconds;
         self.stats = Stats {
-            setup_seconds: self.small.as_ref().map_or(0.0, |s| setup(s.stats()))
+            setup_seconds: self.free.as_ref().map_or(0.0, |f| setup(f.stats()))
+                + self.small.as_ref().map_or(0.0, |s| setup(s.stats()))
                 + self.coupled.as_ref().map_or(0.0, |c| setup(c.stats())),
             ..Stats::default()
         };
@@ -533,6 +571,8 @@ impl Split {
             measure,
             slowest: None,
             assembled: None,
+            row_of,
+            work: Vec::new(),
         })
     }
 
@@ -570,19 +610,32 @@ impl Split {
             let PartSolver {
                 part,
                 values,
+                free,
                 small,
                 coupled,
                 warm,
                 ..
             } = p;
-            let share = match &self.whole {
-                Problem::Global(g) => values.global(part, g, given),
-                Problem::Local(l) => values.local(part, l, given),
-            };
             *warm = false;
-            // Both solvers take the values (the coupled one when it has been built).
-            let small = small.as_mut().map_or(Ok(()), |s| s.update_values(&share));
-            let coupled = coupled.as_mut().map_or(Ok(()), |c| c.update_values(&share));
+            if let (Some(f), Problem::Global(g)) = (free.as_mut(), &self.whole) {
+                let done = f.take_values(g, part, &self.row_of);
+                if first_error.is_ok() {
+                    first_error = done;
+                }
+                continue;
+            }
+            // A small island reads its values from the whole problem; its coupled solver,
+            // when it has been built, takes its share as the other parts do.
+            let small = small
+                .as_mut()
+                .map_or(Ok(()), |s| s.take_values(&self.whole, part, &self.row_of));
+            let coupled = coupled.as_mut().map_or(Ok(()), |c| {
+                let share = match &self.whole {
+                    Problem::Global(g) => values.global(part, g, given),
+                    Problem::Local(l) => values.local(part, l, given),
+                };
+                c.update_values(&share)
+            });
             let done = small.and(coupled);
             if first_error.is_ok() {
                 first_error = done;
@@ -683,27 +736,43 @@ impl Split {
     /// Solves the pending parts, on `threads` scoped threads when several are pending. The
     /// parts are independent, so the results do not depend on the threads.
     fn solve_parts(&mut self, pending: &[bool], settings: &Settings, t0: Instant) {
-        let limit = settings.time_limit;
-        let mut todo: Vec<&mut PartSolver> = self
-            .parts
+        let Split {
+            parts,
+            whole,
+            row_of,
+            work,
+            ..
+        } = self;
+        let at = SolveContext {
+            whole,
+            row_of,
+            t0,
+            time_limit: settings.time_limit,
+        };
+        let mut todo: Vec<&mut PartSolver> = parts
             .iter_mut()
             .zip(pending)
             .filter_map(|(p, &again)| again.then_some(p))
             .collect();
-        let threads = settings.threads.min(todo.len());
-        if threads <= 1 {
-            todo.into_iter().for_each(|p| p.solve(t0, limit));
+        let threads = settings.threads.min(todo.len()).max(1);
+        if work.len() < threads {
+            work.resize_with(threads, SmallWork::default);
+        }
+        if threads == 1 {
+            let work = &mut work[0];
+            todo.into_iter().for_each(|p| p.solve(&at, work));
             return;
         }
         // Largest parts first, so that the last one taken is a small one.
         todo.sort_by_key(|p| std::cmp::Reverse(p.part.contacts.len() + p.part.velocities.len()));
         let queue = Mutex::new(todo.into_iter());
         std::thread::scope(|scope| {
-            for _ in 0..threads {
-                scope.spawn(|| loop {
+            for work in work.iter_mut().take(threads) {
+                let (queue, at) = (&queue, &at);
+                scope.spawn(move || loop {
                     let next = queue.lock().map(|mut q| q.next());
                     match next {
-                        Ok(Some(p)) => p.solve(t0, limit),
+                        Ok(Some(p)) => p.solve(at, work),
                         _ => break,
                     }
                 });

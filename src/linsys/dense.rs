@@ -112,17 +112,25 @@ impl DenseFactor {
 
 /// Solves with the factor of [`cholesky`], in place.
 pub(crate) fn cholesky_solve(a: &[f64], n: usize, x: &mut [f64]) {
+    // Column slices, so that the inner loops run without index checks (small islands
+    // make many of these solves).
     for j in 0..n {
-        x[j] /= a[j + j * n];
-        for i in j + 1..n {
-            x[i] -= a[i + j * n] * x[j];
+        let col = &a[j * n..(j + 1) * n];
+        let (head, tail) = x.split_at_mut(j + 1);
+        head[j] /= col[j];
+        let xj = head[j];
+        for (xi, aij) in tail[..n - j - 1].iter_mut().zip(&col[j + 1..]) {
+            *xi -= aij * xj;
         }
     }
     for j in (0..n).rev() {
-        for i in j + 1..n {
-            x[j] -= a[i + j * n] * x[i];
+        let col = &a[j * n..(j + 1) * n];
+        let (head, tail) = x.split_at_mut(j + 1);
+        let mut xj = head[j];
+        for (aij, xi) in col[j + 1..].iter().zip(&tail[..n - j - 1]) {
+            xj -= aij * xi;
         }
-        x[j] /= a[j + j * n];
+        head[j] = xj / col[j];
     }
 }
 
@@ -156,14 +164,19 @@ pub(crate) fn lu_solve(a: &[f64], pivots: &[usize], n: usize, x: &mut [f64]) {
         x.swap(k, p);
     }
     for j in 0..n {
-        for i in j + 1..n {
-            x[i] -= a[i + j * n] * x[j];
+        let col = &a[j * n..(j + 1) * n];
+        let (head, tail) = x.split_at_mut(j + 1);
+        let xj = head[j];
+        for (xi, aij) in tail[..n - j - 1].iter_mut().zip(&col[j + 1..]) {
+            *xi -= aij * xj;
         }
     }
     for j in (0..n).rev() {
-        x[j] /= a[j + j * n];
-        for i in 0..j {
-            x[i] -= a[i + j * n] * x[j];
+        let col = &a[j * n..(j + 1) * n];
+        x[j] /= col[j];
+        let xj = x[j];
+        for (xi, aij) in x[..j].iter_mut().zip(&col[..j]) {
+            *xi -= aij * xj;
         }
     }
 }
@@ -191,11 +204,13 @@ pub(crate) fn lu(a: &mut [f64], pivots: &mut [usize], n: usize) -> bool {
         for i in k + 1..n {
             a[i + k * n] /= pivot;
         }
-        for j in k + 1..n {
-            let f = a[k + j * n];
+        let (left, right) = a.split_at_mut((k + 1) * n);
+        let pivot_col = &left[k * n + k + 1..(k + 1) * n];
+        for col in right[..(n - k - 1) * n].chunks_exact_mut(n) {
+            let f = col[k];
             if f != 0.0 {
-                for i in k + 1..n {
-                    a[i + j * n] -= a[i + k * n] * f;
+                for (x, l) in col[k + 1..].iter_mut().zip(pivot_col) {
+                    *x -= l * f;
                 }
             }
         }

@@ -33,12 +33,11 @@ struct Layout {
 }
 
 impl Layout {
+    fn len(&self) -> usize {
+        self.ranges()[9].end
+    }
     /// Column-major `W` (`m x m`), then `q`, `mu`, and for a global island `M` (`n x n`),
     /// its Cholesky factor, `H` (`n x m`), `M^-1 H`, `f`, `M^-1 f`, `w`.
-    fn len(&self) -> usize {
-        let (n, m) = (self.n, self.m);
-        m * m + m + m / 3 + 2 * n * n + 2 * n * m + 2 * n + m
-    }
     fn ranges(&self) -> [std::ops::Range<usize>; 10] {
         let (n, m) = (self.n, self.m);
         let sizes = [m * m, m, m / 3, n * n, n * n, n * m, n * m, n, n, m];

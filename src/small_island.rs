@@ -95,11 +95,28 @@ impl<'a> Data<'a> {
 
     /// `u = H^T v + w` (global island).
     fn global_u(&self, v: &[f64], u: &mut [f64]) {
-        let n = v.len();
         for (c, uc) in u.iter_mut().enumerate() {
-            let col = &self.h[c * n..(c + 1) * n];
-            *uc = self.w_global[c] + col.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
+            *uc = self.global_u_row(c, v);
         }
+    }
+
+    /// Row `c` of `u = H^T v + w`.
+    fn global_u_row(&self, c: usize, v: &[f64]) -> f64 {
+        let n = v.len();
+        let col = &self.h[c * n..(c + 1) * n];
+        self.w_global[c] + col.iter().zip(v).map(|(a, b)| a * b).sum::<f64>()
+    }
+
+    /// Row `c` of `u = W r + q` (local island).
+    fn local_u_row(&self, c: usize, r: &[f64]) -> f64 {
+        let m = r.len();
+        let mut u = 0.0;
+        for (j, &rj) in r.iter().enumerate() {
+            if rj != 0.0 {
+                u += self.w[c + j * m] * rj;
+            }
+        }
+        u + self.q[c]
     }
 }
 
@@ -215,12 +232,10 @@ impl SmallIsland {
         trace: bool,
     ) -> Result<Option<Self>, Error> {
         let t0 = Instant::now();
-        let (nc, n) = (part.contacts.len(), part.velocities.len());
-        let frictional = part.contacts.iter().any(|&c| whole.mu()[c] > 0.0);
-        let joints = !part.joints.is_empty();
-        if 3 * nc > SMALL_ISLAND_MAX || n > SMALL_ISLAND_MAX || !frictional || joints {
+        if !Self::fits(whole, part) {
             return Ok(None);
         }
+        let (nc, n) = (part.contacts.len(), part.velocities.len());
         let global = matches!(whole, Problem::Global(_));
         let layout = Layout {
             n: if global { n } else { 0 },
@@ -252,6 +267,14 @@ impl SmallIsland {
         island.reduce()?;
         island.stats.setup_seconds = t0.elapsed().as_secs_f64();
         Ok(Some(island))
+    }
+
+    /// The checks of [`SmallIsland::new`] that need no values: small enough, some friction,
+    /// no joints.
+    fn fits(whole: &Problem, part: &Part) -> bool {
+        let (nc, n) = (part.contacts.len(), part.velocities.len());
+        let frictional = part.contacts.iter().any(|&c| whole.mu()[c] > 0.0);
+        3 * nc <= SMALL_ISLAND_MAX && n <= SMALL_ISLAND_MAX && frictional && part.joints.is_empty()
     }
 
     /// Copies the island's values out of the whole problem into the dense data.
@@ -464,24 +487,36 @@ impl SmallIsland {
         Ok(status)
     }
 
+    /// Row `c` of the last iterate's `u` (the global form's from its own data, as its
+    /// measure computes it).
+    fn u_row(&self, data: &Data, c: usize) -> f64 {
+        match self.global {
+            true => data.global_u_row(c, &self.v),
+            false => data.local_u_row(c, &self.r),
+        }
+    }
+
     /// The last iterate.
     pub(crate) fn solution(&self) -> Solution {
         let data = Data::new(self.layout, &self.data);
-        let mut u = vec![0.0; self.layout.m];
-        if self.global {
-            // The global form's u from its own data, as its measure computes it.
-            data.global_u(&self.v, &mut u);
-        } else {
-            dense_mul(data.w, &self.r, &mut u);
-            for (ui, qi) in u.iter_mut().zip(data.q) {
-                *ui += qi;
-            }
-        }
         Solution {
             r: self.r.clone(),
-            u,
+            u: (0..self.layout.m).map(|c| self.u_row(&data, c)).collect(),
             v: self.v.clone(),
             lambda: Vec::new(),
+        }
+    }
+
+    /// Writes the last iterate into a whole problem's solution at the places of `part`
+    /// (without building the island's own).
+    pub(crate) fn write_solution(&self, part: &Part, out: &mut Solution) {
+        let data = Data::new(self.layout, &self.data);
+        for (k, i) in contact_rows(&part.contacts).enumerate() {
+            out.r[i] = self.r[k];
+            out.u[i] = self.u_row(&data, k);
+        }
+        for (&i, &v) in part.velocities.iter().zip(&self.v) {
+            out.v[i] = v;
         }
     }
 

@@ -577,6 +577,23 @@ impl Split {
     }
 
     fn update(&mut self, problem: Problem) -> Result<(), Error> {
+        // Sizes first, as a coupled solver checks them.
+        let same_form = matches!(
+            (&self.whole, &problem),
+            (Problem::Global(_), Problem::Global(_)) | (Problem::Local(_), Problem::Local(_))
+        );
+        for (field, expected, found) in [
+            ("n", self.whole.n_velocities(), problem.n_velocities()),
+            ("n_contacts", self.whole.n_contacts(), problem.n_contacts()),
+        ] {
+            if same_form && expected != found {
+                return Err(Error::Dimension {
+                    field,
+                    expected,
+                    found,
+                });
+            }
+        }
         if !self.whole.same_pattern(&problem) {
             return Err(match (&self.whole, &problem) {
                 (Problem::Global(_), Problem::Local(_))
@@ -645,14 +662,7 @@ impl Split {
     }
 
     fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
-        let l = 3 * self.whole.n_contacts();
-        if r.len() != l {
-            return Err(Error::Dimension {
-                field: "r",
-                expected: l,
-                found: r.len(),
-            });
-        }
+        crate::problem::check_len("r", r, 3 * self.whole.n_contacts())?;
         if let Some(v) = v {
             crate::problem::check_len("v", v, self.whole.n_velocities())?;
         }
@@ -810,6 +820,10 @@ impl Split {
             }
         }
         for p in &self.parts {
+            if let (Some(small), true) = (&p.small, p.small_solved) {
+                small.write_solution(&p.part, &mut out);
+                continue;
+            }
             let s = p.solution();
             for (k, i) in contact_rows(&p.part.contacts).enumerate() {
                 out.r[i] = s.r[k];

@@ -244,7 +244,16 @@ impl NewtonSystem for Measured<'_> {
     fn factorizations(&self) -> usize {
         self.newton.factorizations()
     }
+    fn alpha_cap(&self) -> f64 {
+        SMALL_ALPHA_CAP
+    }
 }
+
+/// Cap of the regularization when Newton alone solves a small island from a cold start
+/// ([`LocalNewton::solve_measured`]): the islands are well scaled and mostly regular, so a
+/// nearly exact first step identifies the contact states; a singular system still gets its
+/// regularization strengthened tenfold per failed step.
+pub(crate) const SMALL_ALPHA_CAP: f64 = 1e-6;
 
 impl NewtonSystem for LocalNewton {
     type Problem = LocalProblem;

@@ -92,6 +92,11 @@ pub(crate) trait NewtonSystem {
     fn snap_open(&mut self, p: &Self::Problem, x: &mut [f64], error: f64, tol: f64) -> f64;
     /// Numeric factorizations so far.
     fn factorizations(&self) -> usize;
+    /// Cap of the error-driven part of the regularization ([`Tuning::alpha_cap`] unless a
+    /// system knows better).
+    fn alpha_cap(&self) -> f64 {
+        TUNING.alpha_cap
+    }
 }
 
 /// The Newton iteration both forms share: regularized steps, non-monotone line search,
@@ -111,7 +116,7 @@ pub(crate) fn iterate<S: NewtonSystem>(
     let mut err = s.error(p, x);
     best.copy_from_slice(x);
     let mut best_err = err;
-    let mut reg = Regularization::new();
+    let mut reg = Regularization::new(s.alpha_cap());
     let mut window = MeritWindow::new(merit);
     let (mut iterations, mut last_improvement) = (0, 0);
     let status = loop {
@@ -267,18 +272,19 @@ impl MeritWindow {
 /// when a step fails and shrinks back by 10 after a full step.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Regularization {
+    cap: f64,
     boost: f64,
 }
 
 impl Regularization {
-    /// No boost.
-    pub fn new() -> Self {
-        Self { boost: 1.0 }
+    /// No boost; `cap` bounds the error-driven part.
+    pub fn new(cap: f64) -> Self {
+        Self { cap, boost: 1.0 }
     }
     /// The relative regularization to use at the current error.
     pub fn alpha(&self, err: f64) -> f64 {
         let t = TUNING;
-        (err.min(t.alpha_cap) * self.boost).clamp(t.alpha_min, t.alpha_max)
+        (err.min(self.cap) * self.boost).clamp(t.alpha_min, t.alpha_max)
     }
     /// Strengthens after a failed step; false when it is already at its maximum.
     pub fn strengthen(&mut self, err: f64) -> bool {

@@ -16,7 +16,7 @@ use crate::linsys::dense::{cholesky, cholesky_solve};
 use crate::linsys::DENSE_MAX;
 use crate::measure::{local_error_with, Floors, GlobalTerms, MeasureWork, Scales};
 use crate::newton::LocalNewton;
-use crate::problem::{LocalProblem, Problem};
+use crate::problem::{GlobalProblem, LocalProblem, Problem};
 use crate::solver::Solution;
 use crate::stats::{Phase, Stats, TracePoint};
 use std::time::{Duration, Instant};
@@ -34,13 +34,13 @@ struct Layout {
 
 impl Layout {
     fn len(&self) -> usize {
-        self.ranges()[9].end
+        self.ranges()[4].end
     }
-    /// Column-major `W` (`m x m`), then `q`, `mu`, and for a global island `M` (`n x n`),
-    /// its Cholesky factor, `H` (`n x m`), `M^-1 H`, `f`, `M^-1 f`, `w`.
-    fn ranges(&self) -> [std::ops::Range<usize>; 10] {
+    /// Column-major `W` (`m x m`), then `q`, `mu`, and for a global island `M^-1 H`
+    /// (`n x m`) and `M^-1 f`. M, H, f and w stay in the whole problem.
+    fn ranges(&self) -> [std::ops::Range<usize>; 5] {
         let (n, m) = (self.n, self.m);
-        let sizes = [m * m, m, m / 3, n * n, n * n, n * m, n * m, n, n, m];
+        let sizes = [m * m, m, m / 3, n * m, n];
         let mut at = 0;
         sizes.map(|len| {
             at += len;
@@ -49,34 +49,35 @@ impl Layout {
     }
 }
 
-/// An island's data, borrowed out of its array (the Cholesky factor is only used by
-/// [`SmallIsland::reduce`]).
+/// An island's data, borrowed out of its array, with the whole problem it came from.
 struct Data<'a> {
     w: &'a [f64],
     q: &'a [f64],
     mu: &'a [f64],
-    m_mat: &'a [f64],
-    h: &'a [f64],
     minv_h: &'a [f64],
-    f: &'a [f64],
     minv_f: &'a [f64],
-    w_global: &'a [f64],
+    at: Site<'a>,
+}
+
+/// Where an island sits in the whole problem: its velocities and contacts, and the
+/// positions of [`crate::islands::positions`].
+#[derive(Clone, Copy)]
+pub(crate) struct Site<'a> {
+    pub whole: &'a Problem,
+    pub part: &'a Part,
+    pub row_of: &'a [usize],
 }
 
 impl<'a> Data<'a> {
-    fn new(layout: Layout, data: &'a [f64]) -> Self {
-        let [w, q, mu, m_mat, _, h, minv_h, f, minv_f, w_global] =
-            layout.ranges().map(|r| &data[r]);
+    fn new(layout: Layout, data: &'a [f64], at: Site<'a>) -> Self {
+        let [w, q, mu, minv_h, minv_f] = layout.ranges().map(|r| &data[r]);
         Self {
             w,
             q,
             mu,
-            m_mat,
-            h,
             minv_h,
-            f,
             minv_f,
-            w_global,
+            at,
         }
     }
 
@@ -93,18 +94,36 @@ impl<'a> Data<'a> {
         }
     }
 
-    /// `u = H^T v + w` (global island).
-    fn global_u(&self, v: &[f64], u: &mut [f64]) {
-        for (c, uc) in u.iter_mut().enumerate() {
-            *uc = self.global_u_row(c, v);
+    /// The global island's M, H, f and w, from the whole problem.
+    fn global(&self) -> &'a GlobalProblem {
+        match self.at.whole {
+            Problem::Global(g) => g,
+            Problem::Local(_) => unreachable!("a local island has no global data"),
         }
     }
 
-    /// Row `c` of `u = H^T v + w`.
-    fn global_u_row(&self, c: usize, v: &[f64]) -> f64 {
-        let n = v.len();
-        let col = &self.h[c * n..(c + 1) * n];
-        self.w_global[c] + col.iter().zip(v).map(|(a, b)| a * b).sum::<f64>()
+    /// `mv = M v`, `hr = H r` on the island's velocities.
+    fn products(&self, r: &[f64], v: &[f64], mv: &mut [f64], hr: &mut [f64]) {
+        let (g, part, row_of) = (self.global(), self.at.part, self.at.row_of);
+        mv.fill(0.0);
+        for (&j, &vj) in part.velocities.iter().zip(v) {
+            for (i, x) in g.m.col(j) {
+                mv[row_of[i]] += x * vj;
+            }
+        }
+        hr.fill(0.0);
+        for (c, &rc) in contact_rows(&part.contacts).zip(r) {
+            for (i, x) in g.h.col(c) {
+                hr[row_of[i]] += x * rc;
+            }
+        }
+    }
+
+    /// Row `k` of `u = H^T v + w` (global island).
+    fn global_u_row(&self, k: usize, v: &[f64]) -> f64 {
+        let (g, row_of) = (self.global(), self.at.row_of);
+        let c = 3 * self.at.part.contacts[k / 3] + k % 3;
+        g.w[c] + g.h.col(c).map(|(i, x)| x * v[row_of[i]]).sum::<f64>()
     }
 
     /// Row `c` of `u = W r + q` (local island).
@@ -138,19 +157,6 @@ fn scatter_columns(
     }
 }
 
-/// `y = A x` for a column-major `A` with `y.len()` rows.
-fn dense_mul(a: &[f64], x: &[f64], y: &mut [f64]) {
-    let rows = y.len();
-    y.fill(0.0);
-    for (j, &xj) in x.iter().enumerate() {
-        if xj != 0.0 {
-            for (yi, aij) in y.iter_mut().zip(&a[j * rows..(j + 1) * rows]) {
-                *yi += aij * xj;
-            }
-        }
-    }
-}
-
 /// The Newton solver and the problem it runs on for islands of one size: each island's
 /// values are copied in before its solve.
 struct Sized {
@@ -164,10 +170,17 @@ struct Sized {
 pub(crate) struct SmallWork {
     /// By number of contacts.
     sized: Vec<Option<Box<Sized>>>,
+    /// The island's share of f, and the measure's products.
+    f: Vec<f64>,
     mv: Vec<f64>,
     hr: Vec<f64>,
     u: Vec<f64>,
     v: Vec<f64>,
+    /// A global island's dense M, its factor and dense H, while its Delassus form is
+    /// formed.
+    m: Vec<f64>,
+    chol: Vec<f64>,
+    h: Vec<f64>,
 }
 
 impl SmallWork {
@@ -221,21 +234,19 @@ pub(crate) struct SmallIsland {
 }
 
 impl SmallIsland {
-    /// The island `part` of `whole` (`row_of`: the positions of [`crate::islands::positions`])
-    /// when the direct path takes it: some friction (an all-frictionless island is a QP,
-    /// which the coupled solver solves with one row per contact), no joints, a symmetric M,
-    /// and small enough for dense factors. `None` otherwise.
-    pub(crate) fn new(
-        whole: &Problem,
-        part: &Part,
-        row_of: &[usize],
-        trace: bool,
-    ) -> Result<Option<Self>, Error> {
+    /// The island `at.part` when the direct path takes it: some friction (an
+    /// all-frictionless island is a QP, which the coupled solver solves with one row per
+    /// contact), no joints, a symmetric M, and small enough for dense factors. `None`
+    /// otherwise.
+    pub(crate) fn new(at: Site, trace: bool, work: &mut SmallWork) -> Result<Option<Self>, Error> {
         let t0 = Instant::now();
-        if !Self::fits(whole, part) {
+        let (whole, part) = (at.whole, at.part);
+        let (nc, n) = (part.contacts.len(), part.velocities.len());
+        let frictional = part.contacts.iter().any(|&c| whole.mu()[c] > 0.0);
+        let small = 3 * nc <= SMALL_ISLAND_MAX && n <= SMALL_ISLAND_MAX;
+        if !small || !frictional || !part.joints.is_empty() {
             return Ok(None);
         }
-        let (nc, n) = (part.contacts.len(), part.velocities.len());
         let global = matches!(whole, Problem::Global(_));
         let layout = Layout {
             n: if global { n } else { 0 },
@@ -260,107 +271,96 @@ impl SmallIsland {
             },
             last_trace: None,
         };
-        island.read(whole, part, row_of);
-        if global && !island.m_is_symmetric() {
+        if !island.load(at, work, true)? {
             return Ok(None);
         }
-        island.reduce()?;
         island.stats.setup_seconds = t0.elapsed().as_secs_f64();
         Ok(Some(island))
     }
 
-    /// The checks of [`SmallIsland::new`] that need no values: small enough, some friction,
-    /// no joints.
-    fn fits(whole: &Problem, part: &Part) -> bool {
-        let (nc, n) = (part.contacts.len(), part.velocities.len());
-        let frictional = part.contacts.iter().any(|&c| whole.mu()[c] > 0.0);
-        3 * nc <= SMALL_ISLAND_MAX && n <= SMALL_ISLAND_MAX && frictional && part.joints.is_empty()
-    }
-
-    /// Copies the island's values out of the whole problem into the dense data.
-    fn read(&mut self, whole: &Problem, part: &Part, row_of: &[usize]) {
+    /// Forms the island's Delassus form from the whole problem's values: a local island's
+    /// block of W and q; a global island's `W = H^T M^-1 H`, `q = H^T M^-1 f + w`, `M^-1 H`,
+    /// `M^-1 f` from a Cholesky factor of M's symmetric part (positive definite exactly
+    /// when M is, as the coupled solver checks it). With `need_symmetric`, false (nothing
+    /// formed) when M is not symmetric; otherwise an M that an update made asymmetric gets
+    /// a wrong W, which the island's measure (on M itself) rejects, and the coupled solver
+    /// takes over.
+    fn load(
+        &mut self,
+        at: Site,
+        work: &mut SmallWork,
+        need_symmetric: bool,
+    ) -> Result<bool, Error> {
         let Layout { n, m } = self.layout;
-        let [w, q, mu, m_mat, _, h, _, f, _, w_global] = self.layout.ranges();
+        let [w, q, mu, minv_h, minv_f] = self.layout.ranges();
+        let (part, row_of) = (at.part, at.row_of);
         let d = &mut self.data;
-        match whole {
-            Problem::Global(g) => {
-                let velocities = part.velocities.iter().copied();
-                scatter_columns(&g.m, velocities, row_of, n, &mut d[m_mat]);
-                scatter_columns(&g.h, contact_rows(&part.contacts), row_of, n, &mut d[h]);
-                for (dst, i) in d[f].iter_mut().zip(&part.velocities) {
-                    *dst = g.f[*i];
-                }
-                for (dst, i) in d[w_global].iter_mut().zip(contact_rows(&part.contacts)) {
-                    *dst = g.w[i];
-                }
-            }
+        for (dst, c) in d[mu].iter_mut().zip(&part.contacts) {
+            *dst = at.whole.mu()[*c];
+        }
+        let g = match at.whole {
             Problem::Local(l) => {
                 scatter_columns(&l.w, contact_rows(&part.contacts), row_of, m, &mut d[w]);
                 for (dst, i) in d[q].iter_mut().zip(contact_rows(&part.contacts)) {
                     *dst = l.q[i];
                 }
+                return Ok(true);
+            }
+            Problem::Global(g) => g,
+        };
+        work.m.resize(n * n, 0.0);
+        work.chol.resize(n * n, 0.0);
+        work.h.resize(n * m, 0.0);
+        scatter_columns(
+            &g.m,
+            part.velocities.iter().copied(),
+            row_of,
+            n,
+            &mut work.m,
+        );
+        let scale = work.m.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let asymmetric = (0..n).any(|j| {
+            (0..j).any(|i| (work.m[i + j * n] - work.m[j + i * n]).abs() > SYMMETRY_TOL * scale)
+        });
+        if need_symmetric && asymmetric {
+            return Ok(false);
+        }
+        for j in 0..n {
+            for i in 0..n {
+                work.chol[i + j * n] = 0.5 * (work.m[i + j * n] + work.m[j + i * n]);
             }
         }
-        for (dst, c) in d[mu].iter_mut().zip(&part.contacts) {
-            *dst = whole.mu()[*c];
-        }
-    }
-
-    /// True when the island's M is symmetric (to the tolerance the coupled solver uses).
-    fn m_is_symmetric(&self) -> bool {
-        let n = self.layout.n;
-        let m = &self.data[self.layout.ranges()[3].clone()];
-        let scale = m.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        (0..n).all(|j| (0..j).all(|i| (m[i + j * n] - m[j + i * n]).abs() <= SYMMETRY_TOL * scale))
-    }
-
-    /// A global island's Delassus form: `chol(M)`, `M^-1 H`, `M^-1 f`, `W`, `q`.
-    fn reduce(&mut self) -> Result<(), Error> {
-        if !self.global {
-            return Ok(());
-        }
-        let Layout { n, m } = self.layout;
-        let [w, q, _, m_mat, chol, h, minv_h, f, minv_f, w_global] = self.layout.ranges();
-        let d = &mut self.data;
-        d.copy_within(m_mat, chol.start);
-        if !cholesky(&mut d[chol.clone()], n) {
+        if !cholesky(&mut work.chol, n) {
             return Err(Error::NotPositiveDefinite { field: "M" });
         }
-        d.copy_within(h.clone(), minv_h.start);
-        d.copy_within(f, minv_f.start);
-        let (head, tail) = d.split_at_mut(minv_h.start);
-        let factor = &head[chol];
-        for c in 0..m {
-            cholesky_solve(factor, n, &mut tail[c * n..(c + 1) * n]);
+        scatter_columns(&g.h, contact_rows(&part.contacts), row_of, n, &mut work.h);
+        d[minv_h.clone()].copy_from_slice(&work.h);
+        for col in d[minv_h.clone()].chunks_exact_mut(n.max(1)) {
+            cholesky_solve(&work.chol, n, col);
         }
-        let minv_f_at = minv_f.start - minv_h.start;
-        cholesky_solve(factor, n, &mut tail[minv_f_at..minv_f_at + n]);
+        for (dst, &i) in d[minv_f.clone()].iter_mut().zip(&part.velocities) {
+            *dst = g.f[i];
+        }
+        cholesky_solve(&work.chol, n, &mut d[minv_f.clone()]);
         // W = H^T (M^-1 H), q = H^T (M^-1 f) + w.
         for j in 0..m {
             for i in 0..m {
-                let (hi, mj) = (&d[h.start + i * n..][..n], &d[minv_h.start + j * n..][..n]);
+                let (hi, mj) = (&work.h[i * n..][..n], &d[minv_h.start + j * n..][..n]);
                 d[w.start + i + j * m] = hi.iter().zip(mj).map(|(a, b)| a * b).sum();
             }
         }
-        for i in 0..m {
-            let (hi, mf) = (&d[h.start + i * n..][..n], &d[minv_f.start..][..n]);
-            d[q.start + i] =
-                d[w_global.start + i] + hi.iter().zip(mf).map(|(a, b)| a * b).sum::<f64>();
+        for (i, c) in contact_rows(&part.contacts).enumerate() {
+            let (hi, mf) = (&work.h[i * n..][..n], &d[minv_f.clone()]);
+            d[q.start + i] = g.w[c] + hi.iter().zip(mf).map(|(a, b)| a * b).sum::<f64>();
         }
-        Ok(())
+        Ok(true)
     }
 
     /// Takes the whole problem's current values (after an update on the same pattern). The
     /// next solve starts cold unless a warm start follows.
-    pub(crate) fn take_values(
-        &mut self,
-        whole: &Problem,
-        part: &Part,
-        row_of: &[usize],
-    ) -> Result<(), Error> {
+    pub(crate) fn take_values(&mut self, at: Site, work: &mut SmallWork) -> Result<(), Error> {
         self.warm = false;
-        self.read(whole, part, row_of);
-        let done = self.reduce();
+        let done = self.load(at, work, false).map(|_| ());
         self.broken = done.as_ref().err().cloned();
         done
     }
@@ -385,7 +385,7 @@ impl SmallIsland {
 
     /// Newton from the warm start or from zero; `Solved` when the island's measure meets
     /// the tolerance, otherwise the status Newton stopped with (the best iterate is kept).
-    pub(crate) fn solve(&mut self, work: &mut SmallWork) -> Result<Status, Error> {
+    pub(crate) fn solve(&mut self, at: Site, work: &mut SmallWork) -> Result<Status, Error> {
         let t0 = Instant::now();
         if let Some(e) = &self.broken {
             return Err(e.clone());
@@ -397,18 +397,26 @@ impl SmallIsland {
         let deadline =
             t0.checked_add(Duration::try_from_secs_f64(self.time_limit).unwrap_or(Duration::MAX));
         let Layout { n, m } = self.layout;
-        let data = Data::new(self.layout, &self.data);
+        let data = Data::new(self.layout, &self.data, at);
         let SmallWork {
             sized,
+            f,
             mv,
             hr,
             u,
             v,
+            ..
         } = work;
-        for x in [&mut *mv, &mut *hr, &mut *v] {
+        for x in [&mut *f, &mut *mv, &mut *hr, &mut *v] {
             x.resize(n, 0.0);
         }
         u.resize(m, 0.0);
+        if self.global {
+            for (fk, &i) in f.iter_mut().zip(&at.part.velocities) {
+                *fk = data.global().f[i];
+            }
+        }
+        let f: &[f64] = f;
         let s = SmallWork::sized(sized, m / 3)?;
         s.local.w.set_values("W", data.w)?;
         s.local.q.copy_from_slice(data.q);
@@ -431,11 +439,12 @@ impl SmallIsland {
                 return f64::INFINITY;
             }
             data.velocities(r, v);
-            dense_mul(data.m_mat, v, mv);
-            dense_mul(data.h, r, hr);
-            data.global_u(v, u);
+            data.products(r, v, mv, hr);
+            for (k, uk) in u.iter_mut().enumerate() {
+                *uk = data.global_u_row(k, v);
+            }
             let terms = GlobalTerms {
-                f: data.f,
+                f,
                 mv,
                 hr,
                 u,
@@ -497,8 +506,8 @@ impl SmallIsland {
     }
 
     /// The last iterate.
-    pub(crate) fn solution(&self) -> Solution {
-        let data = Data::new(self.layout, &self.data);
+    pub(crate) fn solution(&self, at: Site) -> Solution {
+        let data = Data::new(self.layout, &self.data, at);
         Solution {
             r: self.r.clone(),
             u: (0..self.layout.m).map(|c| self.u_row(&data, c)).collect(),
@@ -507,15 +516,15 @@ impl SmallIsland {
         }
     }
 
-    /// Writes the last iterate into a whole problem's solution at the places of `part`
+    /// Writes the last iterate into a whole problem's solution at the island's places
     /// (without building the island's own).
-    pub(crate) fn write_solution(&self, part: &Part, out: &mut Solution) {
-        let data = Data::new(self.layout, &self.data);
-        for (k, i) in contact_rows(&part.contacts).enumerate() {
+    pub(crate) fn write_solution(&self, at: Site, out: &mut Solution) {
+        let data = Data::new(self.layout, &self.data, at);
+        for (k, i) in contact_rows(&at.part.contacts).enumerate() {
             out.r[i] = self.r[k];
             out.u[i] = self.u_row(&data, k);
         }
-        for (&i, &v) in part.velocities.iter().zip(&self.v) {
+        for (&i, &v) in at.part.velocities.iter().zip(&self.v) {
             out.v[i] = v;
         }
     }

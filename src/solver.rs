@@ -13,7 +13,7 @@ use crate::islands::{
 use crate::measure::{global_error_with, local_error_with, Floors, MeasureWork, Scales};
 use crate::problem::{NewValues, Problem};
 use crate::settings::{NewtonUse, Resolved, Settings, ISLAND_ROUNDS, NEWTON_FIRST_STEPS};
-use crate::small_island::{SmallIsland, SmallWork};
+use crate::small_island::{Site, SmallIsland, SmallWork};
 use crate::stats::{Stats, TracePoint};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -120,13 +120,21 @@ impl PartSolver {
         row_of: &[usize],
         settings: &Settings,
         newton_polish: bool,
+        work: &mut SmallWork,
     ) -> Result<Self, Error> {
         let free = match whole {
             Problem::Global(g) if part.contacts.is_empty() => FreeMotion::new(g, &part, row_of)?,
             _ => None,
         };
         let small = match newton_polish && free.is_none() {
-            true => SmallIsland::new(whole, &part, row_of, settings.trace)?,
+            true => {
+                let at = Site {
+                    whole,
+                    part: &part,
+                    row_of,
+                };
+                SmallIsland::new(at, settings.trace, work)?
+            }
             false => None,
         };
         let coupled = match (&free, &small) {
@@ -243,7 +251,12 @@ impl PartSolver {
             }
             let started = t0.elapsed().as_secs_f64();
             small.set_limits(self.tolerance, time_left, steps);
-            let status = small.solve(work)?;
+            let site = Site {
+                whole: at.whole,
+                part: &self.part,
+                row_of: at.row_of,
+            };
+            let status = small.solve(site, work)?;
             let (stats, trace) = (*small.stats(), small.trace());
             add_solve(&mut self.stats, &mut self.trace, &stats, trace, started);
             self.small_solved = status == Status::Solved;
@@ -283,14 +296,19 @@ impl PartSolver {
     }
 
     /// The part's solution: that of the solver that solved last.
-    fn solution(&self) -> Solution {
+    fn solution(&self, whole: &Problem, row_of: &[usize]) -> Solution {
         if let Some(f) = &self.free {
             return f.solution();
         }
+        let at = Site {
+            whole,
+            part: &self.part,
+            row_of,
+        };
         match (&self.small, &self.coupled) {
-            (Some(s), _) if self.small_solved => s.solution(),
+            (Some(s), _) if self.small_solved => s.solution(at),
             (_, Some(c)) => c.solution(),
-            (Some(s), None) => s.solution(),
+            (Some(s), None) => s.solution(at),
             (None, None) => unreachable!("a part has one of its solvers"),
         }
     }
@@ -543,9 +561,12 @@ impl Split {
         };
         // Small islands go to Newton directly when the settings polish with Newton.
         let newton_polish = settings.resolved().newton == NewtonUse::Polish;
+        let mut work = vec![SmallWork::default()];
         let parts = all
             .into_iter()
-            .map(|part| PartSolver::new(part, &whole, &row_of, settings, newton_polish))
+            .map(|part| {
+                PartSolver::new(part, &whole, &row_of, settings, newton_polish, &mut work[0])
+            })
             .collect::<Result<Vec<_>, _>>()?;
         let measure = match &whole {
             Problem::Global(g) => MeasureWork::global(g),
@@ -572,7 +593,7 @@ impl Split {
             slowest: None,
             assembled: None,
             row_of,
-            work: Vec::new(),
+            work,
         })
     }
 
@@ -643,9 +664,14 @@ impl Split {
             }
             // A small island reads its values from the whole problem; its coupled solver,
             // when it has been built, takes its share as the other parts do.
+            let at = Site {
+                whole: &self.whole,
+                part,
+                row_of: &self.row_of,
+            };
             let small = small
                 .as_mut()
-                .map_or(Ok(()), |s| s.take_values(&self.whole, part, &self.row_of));
+                .map_or(Ok(()), |s| s.take_values(at, &mut self.work[0]));
             let coupled = coupled.as_mut().map_or(Ok(()), |c| {
                 let share = match &self.whole {
                     Problem::Global(g) => values.global(part, g, given),
@@ -718,7 +744,7 @@ impl Split {
                 if *again {
                     p.tolerance *= factor;
                     p.set_floors(scales);
-                    let s = p.solution();
+                    let s = p.solution(&self.whole, &self.row_of);
                     p.r.copy_from_slice(&s.r);
                     p.v.copy_from_slice(&s.v);
                     p.warm_start(!s.v.is_empty())?;
@@ -821,10 +847,15 @@ impl Split {
         }
         for p in &self.parts {
             if let (Some(small), true) = (&p.small, p.small_solved) {
-                small.write_solution(&p.part, &mut out);
+                let at = Site {
+                    whole: &self.whole,
+                    part: &p.part,
+                    row_of: &self.row_of,
+                };
+                small.write_solution(at, &mut out);
                 continue;
             }
-            let s = p.solution();
+            let s = p.solution(&self.whole, &self.row_of);
             for (k, i) in contact_rows(&p.part.contacts).enumerate() {
                 out.r[i] = s.r[k];
                 out.u[i] = s.u[k];

@@ -309,7 +309,8 @@ impl Part {
     }
 }
 
-/// Buffers that carry a part's share of new values (sized once, reused by every update).
+/// Buffers that carry a part's share of new values: empty by default, each sized by the
+/// first update that needs it and reused by the next ones.
 #[derive(Debug, Default)]
 pub(crate) struct ValueBuffers {
     m: Vec<f64>,
@@ -322,12 +323,6 @@ pub(crate) struct ValueBuffers {
 }
 
 impl ValueBuffers {
-    /// Empty buffers: each is sized by the first update that needs it (a scene of many
-    /// islands that is never updated does not pay for them).
-    pub fn new() -> Self {
-        Self::default()
-    }
-
     /// The part's share of the global problem `p`'s values, for the fields `given` names
     /// (the others stay `None`, as in the caller's update).
     pub fn global<'a>(

@@ -79,6 +79,7 @@ struct Split {
 struct SolveContext<'a> {
     whole: &'a Problem,
     row_of: &'a [usize],
+    settings: &'a Settings,
     t0: Instant,
     time_limit: f64,
 }
@@ -89,15 +90,15 @@ struct SolveContext<'a> {
 struct PartSolver {
     part: Part,
     /// The contact-free part, when its blocks of M are small.
-    free: Option<FreeMotion>,
+    free: Option<Box<FreeMotion>>,
     small: Option<SmallIsland>,
-    coupled: Option<CoupledSolver>,
-    /// The settings the coupled solver is built with.
-    settings: Settings,
+    /// Boxed: most parts of a scene of many islands never build one.
+    coupled: Option<Box<CoupledSolver>>,
     /// The solution of the last solve is the small path's.
     small_solved: bool,
     floors: Floors,
-    values: ValueBuffers,
+    /// Boxed and built on the first update of a built coupled solver.
+    values: Option<Box<ValueBuffers>>,
     /// Warm-start buffers.
     r: Vec<f64>,
     v: Vec<f64>,
@@ -139,10 +140,10 @@ impl PartSolver {
         };
         let coupled = match (&free, &small) {
             (Some(_), _) | (_, Some(_)) => None,
-            (None, None) => Some(CoupledSolver::new(
+            (None, None) => Some(Box::new(CoupledSolver::new(
                 part.sub_problem(whole, row_of)?,
                 settings.clone(),
-            )?),
+            )?)),
         };
         let n = part.velocities.len();
         let fraction = |k: usize, total: usize| k as f64 / total.max(1) as f64;
@@ -164,14 +165,13 @@ impl PartSolver {
             share,
             stats: Stats::default(),
             trace: Vec::new(),
-            values: ValueBuffers::new(),
+            values: None,
             r: vec![0.0; 3 * part.contacts.len()],
             v: vec![0.0; n],
             warm: false,
-            free,
+            free: free.map(Box::new),
             small,
             coupled,
-            settings: settings.clone(),
             small_solved: false,
             floors: Floors::default(),
             part,
@@ -239,11 +239,7 @@ impl PartSolver {
         }
         // The iteration limit holds for the whole solve, refinement rounds and the Newton
         // steps of the small path included.
-        let left = |stats: &Stats| {
-            self.settings
-                .max_iterations
-                .saturating_sub(stats.iterations)
-        };
+        let left = |stats: &Stats| at.settings.max_iterations.saturating_sub(stats.iterations);
         if let Some(small) = &mut self.small {
             let steps = left(&self.stats).min(NEWTON_FIRST_STEPS);
             if steps == 0 {
@@ -270,12 +266,12 @@ impl PartSolver {
         }
         if self.coupled.is_none() {
             let problem = self.part.sub_problem(at.whole, at.row_of)?;
-            let mut coupled = CoupledSolver::new(problem, self.settings.clone())?;
+            let mut coupled = CoupledSolver::new(problem, at.settings.clone())?;
             coupled.set_measure_floors(self.floors);
             if warm {
                 coupled.warm_start(&self.r, None)?;
             }
-            self.coupled = Some(coupled);
+            self.coupled = Some(Box::new(coupled));
         }
         let coupled = self.coupled.as_mut().expect("built above");
         let started = t0.elapsed().as_secs_f64();
@@ -673,6 +669,7 @@ impl Split {
                 .as_mut()
                 .map_or(Ok(()), |s| s.take_values(at, &mut self.work[0]));
             let coupled = coupled.as_mut().map_or(Ok(()), |c| {
+                let values = values.get_or_insert_with(Default::default);
                 let share = match &self.whole {
                     Problem::Global(g) => values.global(part, g, given),
                     Problem::Local(l) => values.local(part, l, given),
@@ -782,6 +779,7 @@ impl Split {
         let at = SolveContext {
             whole,
             row_of,
+            settings,
             t0,
             time_limit: settings.time_limit,
         };

@@ -1,7 +1,8 @@
-//! The public solver. A scene is split into its contact islands (docs/algorithms.md §12),
-//! each solved by its own [`CoupledSolver`] (its own rho, stopping test, factorization and
-//! warm start); velocities no contact reaches are solved once, without contacts. A problem
-//! that is one island is solved as it is, with no copy.
+//! The public solver. A scene is split into its contact islands (docs/algorithms.md §12):
+//! a small island is solved by Newton on its dense Delassus form ([`SmallIsland`]), any
+//! other by its own [`CoupledSolver`] (its own rho, stopping test, factorization and warm
+//! start); velocities no contact reaches are solved once, body by body ([`FreeMotion`]).
+//! A problem that is one island is solved as it is, with no copy.
 
 use crate::coupled::CoupledSolver;
 use crate::error::{Error, Status};

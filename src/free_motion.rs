@@ -4,10 +4,9 @@
 //! densely on its own, so a scene with thousands of free bodies pays for them in
 //! proportion, not for a sparse analysis of all of them together.
 
-use crate::csc::SYMMETRY_TOL;
 use crate::error::{Error, Status};
-use crate::islands::Part;
-use crate::linsys::dense::{cholesky, cholesky_solve};
+use crate::islands::{DisjointSets, Part};
+use crate::linsys::dense::{cholesky, cholesky_solve, is_symmetric};
 use crate::linsys::DENSE_MAX;
 use crate::measure::{Floors, GlobalTerms, Scales};
 use crate::problem::GlobalProblem;
@@ -56,36 +55,38 @@ impl FreeMotion {
             return Ok(None);
         }
         let n = part.velocities.len();
-        // Blocks: connected components of M's pattern among the part's velocities.
-        let mut block_of = vec![usize::MAX; n];
-        let mut order = Vec::with_capacity(n);
+        // Blocks: connected components of M's pattern among the part's velocities (an
+        // entry joins its row and its column, whether or not its mirror is stored).
+        let mut sets = DisjointSets::new(n);
+        for (k, &j) in part.velocities.iter().enumerate() {
+            for (i, _) in whole.m.col(j) {
+                sets.union(k, row_of[i]);
+            }
+        }
+        let mut order: Vec<usize> = (0..n).collect();
+        let roots: Vec<usize> = (0..n).map(|k| sets.find(k)).collect();
+        // Grouped by block (blocks in the order of their smallest velocity), increasing
+        // within a block.
+        let mut first = vec![usize::MAX; n];
+        for k in 0..n {
+            first[roots[k]] = first[roots[k]].min(k);
+        }
+        order.sort_by_key(|&k| (first[roots[k]], k));
         let mut blocks = Vec::new();
-        let mut stack = Vec::new();
         let mut at = 0;
-        for seed in 0..n {
-            if block_of[seed] != usize::MAX {
-                continue;
-            }
-            let start = order.len();
-            block_of[seed] = blocks.len();
-            stack.push(seed);
-            while let Some(k) = stack.pop() {
-                order.push(k);
-                for (i, _) in whole.m.col(part.velocities[k]) {
-                    let local = row_of[i];
-                    if block_of[local] == usize::MAX {
-                        block_of[local] = blocks.len();
-                        stack.push(local);
-                    }
-                }
-            }
-            let size = order.len() - start;
+        let mut start = 0;
+        while start < n {
+            let root = roots[order[start]];
+            let size = order[start..]
+                .iter()
+                .take_while(|&&k| roots[k] == root)
+                .count();
             if size > DENSE_MAX {
                 return Ok(None);
             }
-            order[start..].sort_unstable();
             blocks.push(Block { start, size, at });
             at += size * size;
+            start += size;
         }
         let mut free = Self {
             blocks,
@@ -131,13 +132,9 @@ impl FreeMotion {
     }
 
     fn symmetric(&self) -> bool {
-        self.blocks.iter().all(|b| {
-            let (s, m) = (b.size, &self.m[b.at..b.at + b.size * b.size]);
-            let scale = m.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-            (0..s).all(|j| {
-                (0..j).all(|i| (m[i + j * s] - m[j + i * s]).abs() <= SYMMETRY_TOL * scale)
-            })
-        })
+        self.blocks
+            .iter()
+            .all(|b| is_symmetric(&self.m[b.at..b.at + b.size * b.size], b.size))
     }
 
     fn factorize(&mut self) -> Result<(), Error> {

@@ -9,10 +9,10 @@
 //! problem, in one array; the Newton solver, its problem and the measure's vectors live in
 //! a [`SmallWork`] that every island of one size shares (one per thread).
 
-use crate::csc::{CscMatrix, SYMMETRY_TOL};
+use crate::csc::CscMatrix;
 use crate::error::{Error, Status};
 use crate::islands::{contact_rows, Part};
-use crate::linsys::dense::{cholesky, cholesky_solve};
+use crate::linsys::dense::{cholesky, cholesky_solve, is_symmetric};
 use crate::linsys::DENSE_MAX;
 use crate::measure::{local_error_with, Floors, GlobalTerms, MeasureWork, Scales};
 use crate::newton::LocalNewton;
@@ -318,11 +318,7 @@ impl SmallIsland {
             n,
             &mut work.m,
         );
-        let scale = work.m.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        let asymmetric = (0..n).any(|j| {
-            (0..j).any(|i| (work.m[i + j * n] - work.m[j + i * n]).abs() > SYMMETRY_TOL * scale)
-        });
-        if need_symmetric && asymmetric {
+        if need_symmetric && !is_symmetric(&work.m, n) {
             return Ok(false);
         }
         for j in 0..n {

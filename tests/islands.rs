@@ -482,3 +482,31 @@ fn islands_refuse_bad_warm_starts_and_updates_by_name() {
     }
     assert_eq!(solver.solve().unwrap(), Status::Solved);
 }
+
+/// Free bodies whose M stores an entry without its mirror (a stored zero: the values are
+/// symmetric, the pattern is not) form one block: the entry joins its row and its column
+/// whichever is stored (fuzzing found the one-sided case splitting the block and a panic).
+#[test]
+fn free_bodies_coupled_by_a_one_sided_entry_of_m() {
+    let mut m: Vec<(usize, usize, f64)> = (0..9).map(|i| (i, i, 2.0)).collect();
+    m.push((3, 4, 0.0));
+    m.push((5, 3, 0.0));
+    let h = CscMatrix::from_triplets("H", 9, 3, &[(0, 0, 1.0), (1, 1, 1.0), (2, 2, 1.0)]).unwrap();
+    let f: Vec<f64> = (0..9).map(|i| i as f64 - 4.0).collect();
+    let p = GlobalProblem::new(
+        CscMatrix::from_triplets("M", 9, 9, &m).unwrap(),
+        h,
+        f.clone(),
+        vec![0.0; 3],
+        vec![0.5],
+    )
+    .unwrap();
+    let scene = Problem::Global(p);
+    let (solver, status) = solve(&scene, Settings::default());
+    assert_eq!(status, Status::Solved);
+    let s = solver.solution();
+    for (i, (v, f)) in s.v.iter().zip(&f).enumerate().skip(3) {
+        assert!((v - f / 2.0).abs() <= 1e-12, "v[{i}] = {v}");
+    }
+    assert!(independent_error(&scene, &s) <= TOL);
+}

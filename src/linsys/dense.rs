@@ -110,6 +110,14 @@ impl DenseFactor {
     }
 }
 
+/// True when the column-major `n x n` matrix `a` is symmetric to the tolerance sparse
+/// matrices are held to (`max |A - A^T| <= SYMMETRY_TOL max |A|`).
+pub(crate) fn is_symmetric(a: &[f64], n: usize) -> bool {
+    let scale = a.iter().fold(0.0f64, |s, x| s.max(x.abs()));
+    let tol = crate::csc::SYMMETRY_TOL * scale;
+    (0..n).all(|j| (0..j).all(|i| (a[i + j * n] - a[j + i * n]).abs() <= tol))
+}
+
 /// Solves with the factor of [`cholesky`], in place.
 pub(crate) fn cholesky_solve(a: &[f64], n: usize, x: &mut [f64]) {
     // Column slices, so that the inner loops run without index checks (small islands

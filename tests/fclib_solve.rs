@@ -291,3 +291,35 @@ fn anderson_interval_and_trace_statistics() {
             .all(|w| w[0].anderson_accepted <= w[1].anderson_accepted));
     }
 }
+
+/// Tracing measures every iteration but must not change the solve: the same iterations,
+/// statuses and bitwise the same solution with and without the trace (the trace used to let
+/// its extra measurements stop or hand over early).
+#[test]
+fn the_trace_does_not_change_the_solve() {
+    for rel in [
+        "global/Box_Stacks-i0122-82-5.hdf5",
+        "global/Box_Stacks-i1000-482-10.hdf5",
+        "local/Capsules-i100-889.hdf5",
+        "local/Rover1039.hdf5",
+    ] {
+        let p = read(rel);
+        for variant in ["auto", "vp-N-He", "cp-N"] {
+            let run = |trace: bool| {
+                let s = Settings {
+                    trace,
+                    ..settings(variant)
+                };
+                let mut solver = Solver::new(p.clone(), s).unwrap();
+                let status = solver.solve().unwrap();
+                let sol = solver.solution();
+                let bits: Vec<u64> = sol.r.iter().chain(&sol.v).map(|x| x.to_bits()).collect();
+                (status, solver.stats().iterations, bits)
+            };
+            let (plain, traced) = (run(false), run(true));
+            assert_eq!(plain.0, traced.0, "{rel} {variant}: status");
+            assert_eq!(plain.1, traced.1, "{rel} {variant}: iterations");
+            assert!(plain.2 == traced.2, "{rel} {variant}: solutions differ");
+        }
+    }
+}

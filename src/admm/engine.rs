@@ -208,17 +208,16 @@ pub fn run(
             let eps_dual = (l as f64).sqrt() * set.eps_abs + set.eps_rel * rho * sp.norm_at(&zeta);
             dual <= eps_dual
         };
-        let check = set.trace
-            || residual_test
-            || (k + 1) % set.check_every == 0
-            || k + 1 == set.max_iterations;
-        if check {
-            out.error = sp.error(&ax, &y, &zeta, rho);
+        // The trace measures every iteration, but only the iterations measured without it
+        // decide (stop, hand over): tracing must not change the solve.
+        let check = residual_test || (k + 1) % set.check_every == 0 || k + 1 == set.max_iterations;
+        if check || set.trace {
+            let error = sp.error(&ax, &y, &zeta, rho);
             if set.trace {
                 out.trace.push(TracePoint {
                     iteration: k + 1,
                     seconds: start.elapsed().as_secs_f64(),
-                    error: out.error,
+                    error,
                     primal_residual: primal,
                     dual_residual: dual,
                     rho,
@@ -227,6 +226,11 @@ pub fn run(
                     phase: Phase::Admm,
                 });
             }
+            if check {
+                out.error = error;
+            }
+        }
+        if check {
             if out.error <= set.tolerance {
                 out.status = Some(Status::Solved);
                 break;

@@ -235,12 +235,21 @@ impl CoupledSolver {
             stats.newton_iterations += newton.iterations;
             stats.newton_factorizations += newton.factorizations;
             stats.newton_phases += 1;
-            error = error.min(newton.error);
+            // Newton measured its own iterate; what the solver hands back is the engine
+            // state Newton wrote, recomputed from it: measure that (at huge impulses the two
+            // can differ beyond the tolerance).
+            let handed = if newton.converged() {
+                self.iterate_error()
+            } else {
+                newton.error
+            };
+            let converged = newton.converged() && handed <= self.settings.tolerance;
+            error = error.min(handed);
             if self.settings.trace {
                 self.trace.push(TracePoint {
                     iteration: stats.iterations,
                     seconds: t0.elapsed().as_secs_f64(),
-                    error: newton.error,
+                    error: handed,
                     primal_residual: f64::NAN,
                     dual_residual: f64::NAN,
                     rho: self.state.rho,
@@ -249,7 +258,7 @@ impl CoupledSolver {
                     phase: Phase::Newton,
                 });
             }
-            if newton.converged() {
+            if converged {
                 status = Some(Status::Solved);
             } else if newton.status == NewtonStatus::Failed(FailReason::Deadline)
                 || t0.elapsed().as_secs_f64() > self.settings.time_limit

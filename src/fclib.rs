@@ -144,7 +144,8 @@ fn read_matrix(parent: &Group, name: &'static str, path: &Path) -> Result<CscMat
     }
 }
 
-/// Reads an FCLib problem (global or local).
+/// Reads an FCLib problem (global or local). Read only files you trust: libhdf5 itself can
+/// crash on a corrupt file (found by fuzzing) before the checks here run.
 pub fn read(path: impl AsRef<Path>) -> Result<Problem, Error> {
     let path = path.as_ref();
     let file = File::open(path).map_err(|e| io(path, e))?;

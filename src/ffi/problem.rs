@@ -149,7 +149,9 @@ pub unsafe extern "C" fn cadmm_problem_new_local(
 /// On success `*out` receives a new problem; on failure `*out` is left untouched. Errors:
 /// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_IO` (missing or unreadable file), the validation
 /// errors of `cadmm_problem_new_global`/`_new_local`, and `CADMM_ERR_UNSUPPORTED` when the
-/// library was built without FCLib support (Cargo feature `fclib`).
+/// library was built without FCLib support (Cargo feature `fclib`). Read only files you
+/// trust: libhdf5 itself can crash on a corrupt file (found by fuzzing) before cadmm's own
+/// checks run.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_problem_read_fclib(
     path: *const c_char,

@@ -160,7 +160,8 @@ pub fn global_error_with(
 
 /// The products the equation and contact terms of the global measure are made of, at
 /// `(r, v)`: `mv = M v`, `hr = H r (+ G lambda)`, `u = H^T v + w`. Whoever computes them
-/// (sparse products here, dense ones for a small island) gets the one formula.
+/// (the whole problem's sparse products here, a small island's or a free block's own) gets
+/// the one formula.
 pub(crate) struct GlobalTerms<'a> {
     pub f: &'a [f64],
     pub mv: &'a [f64],

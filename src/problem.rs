@@ -52,6 +52,24 @@ pub enum Problem {
     Local(LocalProblem),
 }
 
+/// The sizes an update must keep, `[velocities, contacts]`: the first that differs, as a
+/// dimension error (`n`, then `n_contacts`).
+pub(crate) fn check_same_sizes(expected: [usize; 2], found: [usize; 2]) -> Result<(), Error> {
+    for (field, expected, found) in [
+        ("n", expected[0], found[0]),
+        ("n_contacts", expected[1], found[1]),
+    ] {
+        if expected != found {
+            return Err(Error::Dimension {
+                field,
+                expected,
+                found,
+            });
+        }
+    }
+    Ok(())
+}
+
 pub(crate) fn check_len(field: &'static str, v: &[f64], expected: usize) -> Result<(), Error> {
     if v.len() != expected {
         return Err(Error::Dimension {

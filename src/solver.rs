@@ -12,7 +12,7 @@ use crate::islands::{
     ValueBuffers, EVERY_FIELD,
 };
 use crate::measure::{global_error_with, local_error_with, Floors, MeasureWork, Scales};
-use crate::problem::{NewValues, Problem};
+use crate::problem::{check_same_sizes, NewValues, Problem};
 use crate::settings::{NewtonUse, Resolved, Settings, ISLAND_ROUNDS, NEWTON_FIRST_STEPS};
 use crate::small_island::{Site, SmallIsland, SmallWork};
 use crate::stats::{Stats, TracePoint};
@@ -125,8 +125,8 @@ impl PartSolver {
         work: &mut SmallWork,
     ) -> Result<Self, Error> {
         let free = match whole {
-            Problem::Global(g) if part.contacts.is_empty() => FreeMotion::new(g, &part, row_of)?,
-            _ => None,
+            Problem::Global(g) => FreeMotion::new(g, &part, row_of)?,
+            Problem::Local(_) => None,
         };
         let small = match newton_polish && free.is_none() {
             true => {
@@ -595,22 +595,14 @@ impl Split {
     }
 
     fn update(&mut self, problem: Problem) -> Result<(), Error> {
-        // Sizes first, as a coupled solver checks them.
+        // Sizes first, as a coupled solver checks them (after the form).
         let same_form = matches!(
             (&self.whole, &problem),
             (Problem::Global(_), Problem::Global(_)) | (Problem::Local(_), Problem::Local(_))
         );
-        for (field, expected, found) in [
-            ("n", self.whole.n_velocities(), problem.n_velocities()),
-            ("n_contacts", self.whole.n_contacts(), problem.n_contacts()),
-        ] {
-            if same_form && expected != found {
-                return Err(Error::Dimension {
-                    field,
-                    expected,
-                    found,
-                });
-            }
+        if same_form {
+            let sizes = |p: &Problem| [p.n_velocities(), p.n_contacts()];
+            check_same_sizes(sizes(&self.whole), sizes(&problem))?;
         }
         if !self.whole.same_pattern(&problem) {
             return Err(match (&self.whole, &problem) {

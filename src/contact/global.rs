@@ -16,7 +16,7 @@ use crate::linsys::param_matrix::{gram_triplets, triplets, Assembly};
 use crate::linsys::{Factor, FactorKind, ParamMatrix};
 use crate::measure::{global_error_with, Floors, MeasureWork};
 use crate::newton::{GlobalNewton, NewtonOutcome};
-use crate::problem::{GlobalProblem, Problem};
+use crate::problem::{check_same_sizes, GlobalProblem, Problem};
 use crate::solver::Solution;
 use std::time::Instant;
 
@@ -302,18 +302,7 @@ impl ContactForm for GlobalSplitting {
                 "update: the new problem is local, the solver was built for a global one".into(),
             ));
         };
-        for (field, expected, found) in [
-            ("n", self.p.n(), p.n()),
-            ("n_contacts", self.p.n_contacts(), p.n_contacts()),
-        ] {
-            if expected != found {
-                return Err(Error::Dimension {
-                    field,
-                    expected,
-                    found,
-                });
-            }
-        }
+        check_same_sizes([self.p.n(), self.p.n_contacts()], [p.n(), p.n_contacts()])?;
         if !self.p.same_pattern(&p) {
             return Err(Error::InvalidCsc {
                 field: "M, H or G",

@@ -12,7 +12,7 @@ use crate::linsys::param_matrix::{triplets, Assembly};
 use crate::linsys::{Factor, FactorKind, ParamMatrix};
 use crate::measure::{local_error_with, Floors, MeasureWork};
 use crate::newton::{LocalNewton, NewtonOutcome};
-use crate::problem::{same_matrix_pattern, LocalProblem, NewValues, Problem};
+use crate::problem::{check_same_sizes, same_matrix_pattern, LocalProblem, NewValues, Problem};
 use crate::solver::Solution;
 use std::time::Instant;
 
@@ -203,13 +203,7 @@ impl ContactForm for LocalSplitting {
                 "update: the new problem is global, the solver was built for a local one".into(),
             ));
         };
-        if p.n_contacts() != self.p.n_contacts() {
-            return Err(Error::Dimension {
-                field: "n_contacts",
-                expected: self.p.n_contacts(),
-                found: p.n_contacts(),
-            });
-        }
+        check_same_sizes([0, self.p.n_contacts()], [0, p.n_contacts()])?;
         if !same_matrix_pattern(&p.w, &self.p.w) {
             return Err(Error::InvalidCsc {
                 field: "W",

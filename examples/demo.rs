@@ -10,7 +10,9 @@
 //! Run: `cargo run --release --example demo`. Exits with status 1 when a solve or a
 //! physical sanity check fails (CI runs it). `-- --tilted` drops the block tilted from
 //! 1 m: it lands on an edge and rocks, a known hard case where steps can stall short of
-//! the tolerance (a stress case, not run by CI).
+//! the tolerance (a stress case, not run by CI). `-- --dump DIR` (with `--features fclib`)
+//! writes every step that does not reach the tolerance as `DIR/step-NNN.hdf5` (FCLib) and
+//! its warm start as `DIR/step-NNN-warm.hdf5`, for `cadmm solve FILE --warm WARM`.
 
 #[path = "demo/scene.rs"]
 mod scene;
@@ -221,7 +223,12 @@ struct Outcome {
 }
 
 fn main() -> ExitCode {
-    let tilted = std::env::args().skip(1).any(|a| a == "--tilted");
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let tilted = args.iter().any(|a| a == "--tilted");
+    let dump_dir = args
+        .iter()
+        .position(|a| a == "--dump")
+        .and_then(|i| args.get(i + 1).cloned());
     let planes = container(HALF_WIDTH);
     let mut bodies = pyramid();
     let bricks = bodies.len();
@@ -340,6 +347,12 @@ fn main() -> ExitCode {
             let stats = *solver.stats();
             let solution = solver.solution();
             let check = global_error(check_problem, &solution.r, &solution.v, &[]);
+            if let (Some(dir), false) = (&dump_dir, status == Status::Solved) {
+                if let Err(e) = dump(dir, step, check_problem, &r0, &v_prev) {
+                    eprintln!("--dump: {e}");
+                    return ExitCode::FAILURE;
+                }
+            }
             previous.clear();
             outcome.static_impulse = V3::zeros();
             for (c, contact) in contacts.iter().enumerate() {
@@ -394,6 +407,31 @@ fn main() -> ExitCode {
     }
     outcome.wall_seconds = started.elapsed().as_secs_f64();
     summary(&bodies, &slider_start, &planes, &logs, &outcome)
+}
+
+/// Writes an unsolved step as an FCLib problem and its warm start as a solution file.
+#[cfg(feature = "fclib")]
+fn dump(dir: &str, step: usize, p: &GlobalProblem, r0: &[f64], v0: &[f64]) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{dir}: {e}"))?;
+    let path = format!("{dir}/step-{step:03}.hdf5");
+    cadmm::fclib::write_problem(&path, &Problem::Global(p.clone()))
+        .map_err(|e| format!("{path}: {e}"))?;
+    let warm = cadmm::Solution {
+        r: r0.to_vec(),
+        u: Vec::new(),
+        v: v0.to_vec(),
+        lambda: Vec::new(),
+    };
+    let path = format!("{dir}/step-{step:03}-warm.hdf5");
+    cadmm::fclib::write_solution(&path, &warm).map_err(|e| format!("{path}: {e}"))
+}
+
+#[cfg(not(feature = "fclib"))]
+fn dump(_: &str, _: usize, _: &GlobalProblem, _: &[f64], _: &[f64]) -> Result<(), String> {
+    Err(
+        "--dump needs the fclib feature: cargo run --release --features fclib --example demo"
+            .into(),
+    )
 }
 
 fn short_status(s: Status) -> &'static str {

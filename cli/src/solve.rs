@@ -43,6 +43,9 @@ pub struct SolveArgs {
     /// Threads that solve islands side by side.
     #[arg(long, default_value_t = 1)]
     threads: usize,
+    /// Warm start from /solution/{r, v} of this HDF5 file (as `--out` writes it).
+    #[arg(long)]
+    warm: Option<PathBuf>,
     /// Write r, u, v into /solution of this HDF5 file.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -120,7 +123,9 @@ pub fn json_number(x: f64) -> String {
 /// Runs `cadmm solve`: exit code 0 with the JSON line on stdout, 2 with a message on stderr.
 pub fn run(a: SolveArgs) -> ExitCode {
     let settings = settings_from(&a);
-    let SolveArgs { file, out, .. } = a;
+    let SolveArgs {
+        file, out, warm, ..
+    } = a;
     let run = || -> Result<String, cadmm::Error> {
         let settings = settings?;
         let problem = fclib::read(&file)?;
@@ -129,6 +134,11 @@ pub fn run(a: SolveArgs) -> ExitCode {
             cadmm::Problem::Local(_) => "local",
         };
         let mut solver = Solver::new(problem, settings)?;
+        if let Some(warm) = &warm {
+            let guess = fclib::read_solution(warm)?;
+            let v = (!guess.v.is_empty()).then_some(guess.v.as_slice());
+            solver.warm_start(&guess.r, v)?;
+        }
         let status = solver.solve()?;
         let st = *solver.stats();
         if let Some(out) = &out {

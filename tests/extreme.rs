@@ -130,6 +130,103 @@ fn unit_scaling_maps_solutions() {
     }
 }
 
+/// `auto` (Newton on these small scenes) is unit-invariant: after the same number of steps,
+/// the iterate of a problem in other units is the base iterate mapped by the change of
+/// units, `r' = (a b / c) r`, `v' = (a / c) T^-1 v`. Only the choices made by the error
+/// measure can differ (when to stop, which iterate is the best so far), because the measure
+/// adds velocities to impulses: the local measure changes with the mass unit and picks
+/// another best iterate there, so the local form is checked in length and time units.
+#[test]
+fn auto_iterates_follow_the_units() {
+    let cases = scenes::cases((1, 1, 1));
+    let base = cases.iter().find(|c| c.name == "units-base").unwrap();
+    let close = |x: &[f64], y: &[f64], what: &str| {
+        let scale = y.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let diff = x
+            .iter()
+            .zip(y)
+            .map(|(p, q)| (p - q) * (p - q))
+            .sum::<f64>()
+            .sqrt();
+        assert!(
+            diff <= 1e-9 * scale,
+            "{what}: off by {:e} relative",
+            diff / scale
+        );
+    };
+    for form in ["global", "local"] {
+        for steps in 1..=3 {
+            let o = scenes::run(base, form, "auto", 5.0, steps);
+            assert_eq!(
+                o.iterations, steps,
+                "{form}: the base is not solved in {steps}"
+            );
+            for (a, b, c) in [
+                (1e3, 1.0, 1.0),
+                (1e-6, 1.0, 1.0),
+                (1.0, 1e6, 1.0),
+                (1.0, 1e-3, 1.0),
+                (1.0, 1.0, 1e6),
+                (1e-2, 1e2, 1e-3),
+            ] {
+                if form == "local" && b != 1.0 {
+                    continue;
+                }
+                let global = scenes::scale_units(&base.global, a, b, c);
+                let case = Case {
+                    name: format!("units-{a:e}-{b:e}-{c:e}"),
+                    family: "units",
+                    local: Some(scenes::local_form(&global)),
+                    global,
+                };
+                let s = scenes::run(&case, form, "auto", 5.0, steps);
+                let what = format!("{form}, {steps} steps, units ({a:e}, {b:e}, {c:e})");
+                assert_eq!(s.iterations, steps, "{what}");
+                let r: Vec<f64> = o.solution.r.iter().map(|x| a * b / c * x).collect();
+                close(&s.solution.r, &r, &format!("{what}, r"));
+                if form == "global" {
+                    let v: Vec<f64> = (0..o.solution.v.len())
+                        .map(|i| a / c * o.solution.v[i] / if i % 6 >= 3 { a } else { 1.0 })
+                        .collect();
+                    close(&s.solution.v, &v, &format!("{what}, v"));
+                }
+            }
+        }
+    }
+}
+
+/// With its iterates independent of the units (above), `auto` stops after the same number
+/// of steps at every scaling of the units family, except where the error measure itself
+/// changes with the unit: the global measure with the mass unit (it adds velocities to
+/// impulses), where the 1e-8 tolerance may be met one step earlier or later.
+#[test]
+fn auto_iteration_counts_follow_the_units() {
+    let cases = scenes::cases((1, 1, 1));
+    let family: Vec<&Case> = cases.iter().filter(|c| c.family == "units").collect();
+    let base = family.iter().find(|c| c.name == "units-base").unwrap();
+    for form in ["global", "local"] {
+        let reference = scenes::run(base, form, "auto", 5.0, 20_000);
+        assert_eq!(reference.status, "solved");
+        for case in &family {
+            let o = scenes::run(case, form, "auto", 5.0, 20_000);
+            assert_eq!(o.status, "solved", "{} {form}", case.name);
+            assert!(o.error <= TOL, "{} {form}: {:e}", case.name, o.error);
+            let slack = if form == "global" && case.name.starts_with("units-mass") {
+                1
+            } else {
+                0
+            };
+            assert!(
+                o.iterations.abs_diff(reference.iterations) <= slack,
+                "{} {form}: {} iterations against {}",
+                case.name,
+                o.iterations,
+                reference.iterations
+            );
+        }
+    }
+}
+
 /// Frictionless, the algorithms are invariant under time scaling (a homogeneous scaling of
 /// the data), and so is the local form under length scaling (it only scales `q`): the
 /// iteration counts stay within 10% of the unscaled case. With friction they do not: the

@@ -77,6 +77,9 @@ pub struct GlobalNewton {
     /// The current point `(v, lambda, r)`, taken out of `self` during a solve.
     z: Vec<f64>,
     measure: MeasureWork,
+    /// `||rho u_free||` with `u_free = w + H^T diag(M)^-1 f`: the impulse that would stop
+    /// the free motion, contact by contact (scale of [`NewtonSystem::impulse_scale`]).
+    free_scale: f64,
 }
 
 fn pattern_of(a: &CscMatrix) -> (Vec<usize>, Vec<usize>) {
@@ -171,6 +174,7 @@ impl GlobalNewton {
             best: vec![0.0; nz],
             z: vec![0.0; nz],
             measure: MeasureWork::global(prob),
+            free_scale: 0.0,
         };
         newton.take_values(prob);
         Ok(newton)
@@ -202,6 +206,16 @@ impl GlobalNewton {
             }
             *rho = rho_from_block(&blk);
         }
+        // u_free, through diag(M)^-1 (exact for a diagonal M; a scale either way).
+        let mut free_sq = 0.0;
+        for (c, w) in prob.w.iter().enumerate() {
+            let u = w + h
+                .col(c)
+                .map(|(j, x)| x * self.minv[j] * prob.f[j])
+                .sum::<f64>();
+            free_sq += (self.rho[c / 3] * u).powi(2);
+        }
+        self.free_scale = free_sq.sqrt();
         if let Some(j) = &prob.joints {
             for (k, scale) in self.joint_scale.iter_mut().enumerate() {
                 let s = weighted_dot(&j.g, k, k, &self.minv);
@@ -310,6 +324,12 @@ impl NewtonSystem for GlobalNewton {
 
     fn factorizations(&self) -> usize {
         self.lu.factorizations()
+    }
+
+    /// `max(||r||, ||rho u_free||)`.
+    fn impulse_scale(&self, _: &GlobalProblem, z: &[f64]) -> f64 {
+        let r = &z[self.n + self.p..];
+        crate::csc::dot(r, r).sqrt().max(self.free_scale)
     }
 
     /// Residuals, F, A, B at `z`; returns the merit `0.5 ||R||^2`.

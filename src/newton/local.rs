@@ -10,9 +10,13 @@
 //! `alpha A` is one Newton step on the proximal problem `u = W r + q + alpha D (r - r_k)`
 //! centred at the current iterate, whose function value at `r_k` is unchanged: the fixed
 //! points are the same, and the step is an inexact Newton step with a residual of order
-//! `alpha`. `alpha` follows the error measure (`alpha = min(err, 1e-2)`), which keeps the
-//! convergence superlinear near the solution, and grows tenfold whenever no step length
-//! passes the line search (Levenberg-Marquardt style), back down after full steps.
+//! `alpha`. `alpha` follows the residual relative to the impulse scale,
+//! `alpha = min(3 ||F|| / max(||r||, ||rho q||), 1e-2)`, which keeps the convergence
+//! superlinear near the solution, and grows tenfold whenever no step length passes the line
+//! search (Levenberg-Marquardt style), back down after full steps. Every part of `F` is an
+//! impulse, so `alpha` and the iterates do not depend on the units; the error measure,
+//! which adds velocities to impulses, would make them depend (it decides only when to stop
+//! and which iterate is the best).
 //!
 //! Line search: backtracking on `||F||` with the test `||F(r + t d)|| <= (1 - 1e-4 t) R`
 //! (for an inexact Newton step this is the Armijo test of `0.5 ||F||^2`), where `R` is the
@@ -244,6 +248,9 @@ impl NewtonSystem for Measured<'_> {
     fn factorizations(&self) -> usize {
         self.newton.factorizations()
     }
+    fn impulse_scale(&self, p: &LocalProblem, r: &[f64]) -> f64 {
+        self.newton.impulse_scale(p, r)
+    }
     fn alpha_cap(&self) -> f64 {
         SMALL_ALPHA_CAP
     }
@@ -268,6 +275,16 @@ impl NewtonSystem for LocalNewton {
 
     fn factorizations(&self) -> usize {
         self.lu.factorizations()
+    }
+
+    /// `max(||r||, ||rho q||)`.
+    fn impulse_scale(&self, p: &LocalProblem, r: &[f64]) -> f64 {
+        let rho_q =
+            p.q.iter()
+                .enumerate()
+                .map(|(k, q)| (self.rho[k / 3] * q).powi(2))
+                .sum::<f64>();
+        crate::csc::dot(r, r).max(rho_q).sqrt()
     }
 
     /// `u = W r + q` and F, A, B at `r`; returns the merit `0.5 ||F||^2`.

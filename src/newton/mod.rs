@@ -300,10 +300,18 @@ impl Regularization {
     pub fn new(cap: f64) -> Self {
         Self { cap, boost: 1.0 }
     }
-    /// The relative regularization to use at the relative residual `rel`.
+    /// The relative regularization to use at the relative residual `rel`. The floor comes
+    /// before the boost, so that every boost raises alpha: at `rel = 0` (an underflowed
+    /// residual) or an infinite impulse scale, a failing step still reaches `alpha_max` and
+    /// gives up.
     pub fn alpha(&self, rel: f64) -> f64 {
         let t = TUNING;
-        (rel.min(self.cap) * self.boost).clamp(t.alpha_min, t.alpha_max)
+        let base = if rel.is_nan() {
+            self.cap
+        } else {
+            rel.clamp(t.alpha_min, self.cap)
+        };
+        (base * self.boost).min(t.alpha_max)
     }
     /// Strengthens after a failed step; false when it is already at its maximum.
     pub fn strengthen(&mut self, rel: f64) -> bool {
@@ -351,4 +359,32 @@ pub(crate) fn eval_all(
         merit += fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2];
     }
     0.5 * merit
+}
+
+#[cfg(test)]
+mod regularization_tests {
+    use super::*;
+
+    /// Strengthening ends for any residual: a residual of 0 (underflow) once kept alpha at
+    /// its floor however large the boost, and the step retried forever.
+    #[test]
+    fn strengthening_always_reaches_the_maximum() {
+        for rel in [0.0, 1e-300, 1e-14, 1e-8, 1.0, f64::INFINITY, f64::NAN] {
+            let mut reg = Regularization::new(TUNING.alpha_cap);
+            let mut alpha = reg.alpha(rel);
+            assert!(
+                alpha >= TUNING.alpha_min && alpha <= TUNING.alpha_cap,
+                "{rel}: {alpha}"
+            );
+            let mut tries = 0;
+            while reg.strengthen(rel) {
+                let stronger = reg.alpha(rel);
+                assert!(stronger > alpha, "{rel}: {stronger} after {alpha}");
+                alpha = stronger;
+                tries += 1;
+                assert!(tries < 40, "{rel}: still strengthening");
+            }
+            assert_eq!(reg.alpha(rel), TUNING.alpha_max, "{rel}");
+        }
+    }
 }

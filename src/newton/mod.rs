@@ -373,7 +373,7 @@ mod regularization_tests {
             let mut reg = Regularization::new(TUNING.alpha_cap);
             let mut alpha = reg.alpha(rel);
             assert!(
-                alpha >= TUNING.alpha_min && alpha <= TUNING.alpha_cap,
+                (TUNING.alpha_min..=TUNING.alpha_cap).contains(&alpha),
                 "{rel}: {alpha}"
             );
             let mut tries = 0;

@@ -104,6 +104,16 @@ fn zero_contacts_give_the_free_velocity() {
     }
 }
 
+/// A solution in the units of `scenes::scale_units(_, a, b, c)`: `r' = (a b / c) r`,
+/// `v' = (a / c) T^-1 v` (`T` scales the rotational velocities by `a`).
+fn in_units(s: &cadmm::Solution, a: f64, b: f64, c: f64) -> (Vec<f64>, Vec<f64>) {
+    let r = s.r.iter().map(|x| a * b / c * x).collect();
+    let v = (s.v.iter().enumerate())
+        .map(|(i, x)| a / c * x / if i % 6 >= 3 { a } else { 1.0 })
+        .collect();
+    (r, v)
+}
+
 /// The transformation of `scale_units` maps solutions to solutions: `r' = (a b / c) r`,
 /// `v' = (a / c) T^-1 v`, checked on the unscaled solution with the independent measure.
 #[test]
@@ -119,10 +129,7 @@ fn unit_scaling_maps_solutions() {
         (1e-2, 1e2, 1e-3),
     ] {
         let p = scenes::scale_units(&base.global, a, b, c);
-        let r: Vec<f64> = o.solution.r.iter().map(|x| a * b / c * x).collect();
-        let v: Vec<f64> = (0..p.n())
-            .map(|i| a / c * o.solution.v[i] / if i % 6 >= 3 { a } else { 1.0 })
-            .collect();
+        let (r, v) = in_units(&o.solution, a, b, c);
         let e = common::global_error(&p, &r, &v, &[]);
         // The measure is not unit-invariant (its natural map subtracts a velocity from an
         // impulse), so only a loose bound holds here; the solve itself is checked elsewhere.
@@ -182,12 +189,9 @@ fn auto_iterates_follow_the_units() {
                 let s = scenes::run(&case, form, "auto", 5.0, steps);
                 let what = format!("{form}, {steps} steps, units ({a:e}, {b:e}, {c:e})");
                 assert_eq!(s.iterations, steps, "{what}");
-                let r: Vec<f64> = o.solution.r.iter().map(|x| a * b / c * x).collect();
+                let (r, v) = in_units(&o.solution, a, b, c);
                 close(&s.solution.r, &r, &format!("{what}, r"));
                 if form == "global" {
-                    let v: Vec<f64> = (0..o.solution.v.len())
-                        .map(|i| a / c * o.solution.v[i] / if i % 6 >= 3 { a } else { 1.0 })
-                        .collect();
                     close(&s.solution.v, &v, &format!("{what}, v"));
                 }
             }

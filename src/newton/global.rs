@@ -25,8 +25,8 @@
 
 use super::sparse::{Pattern, SparseLu};
 use super::{
-    ac_branch, check_rho, eval_all, iterate, rho_from_block, Branch, Mat3, NewtonOutcome,
-    NewtonSystem, TUNING,
+    ac_branch, check_rho, eval_all, impulse_scale, iterate, rho_from_block, Branch, Mat3,
+    NewtonOutcome, NewtonSystem, TUNING,
 };
 use crate::csc::CscMatrix;
 use crate::error::Error;
@@ -77,9 +77,8 @@ pub struct GlobalNewton {
     /// The current point `(v, lambda, r)`, taken out of `self` during a solve.
     z: Vec<f64>,
     measure: MeasureWork,
-    /// `||rho u_free||` with `u_free = w + H^T diag(M)^-1 f`: the impulse that would stop
-    /// the free motion, contact by contact (scale of [`NewtonSystem::impulse_scale`]).
-    free_scale: f64,
+    /// The free velocity `w + H^T diag(M)^-1 f`, for [`NewtonSystem::impulse_scale`].
+    u_free: Vec<f64>,
 }
 
 fn pattern_of(a: &CscMatrix) -> (Vec<usize>, Vec<usize>) {
@@ -174,7 +173,7 @@ impl GlobalNewton {
             best: vec![0.0; nz],
             z: vec![0.0; nz],
             measure: MeasureWork::global(prob),
-            free_scale: 0.0,
+            u_free: vec![0.0; m],
         };
         newton.take_values(prob);
         Ok(newton)
@@ -206,16 +205,13 @@ impl GlobalNewton {
             }
             *rho = rho_from_block(&blk);
         }
-        // u_free, through diag(M)^-1 (exact for a diagonal M; a scale either way).
-        let mut free_sq = 0.0;
-        for (c, w) in prob.w.iter().enumerate() {
-            let u = w + h
+        // u_free through diag(M)^-1: exact for a diagonal M, a scale either way.
+        for (c, (u, w)) in self.u_free.iter_mut().zip(&prob.w).enumerate() {
+            *u = w + h
                 .col(c)
                 .map(|(j, x)| x * self.minv[j] * prob.f[j])
                 .sum::<f64>();
-            free_sq += (self.rho[c / 3] * u).powi(2);
         }
-        self.free_scale = free_sq.sqrt();
         if let Some(j) = &prob.joints {
             for (k, scale) in self.joint_scale.iter_mut().enumerate() {
                 let s = weighted_dot(&j.g, k, k, &self.minv);
@@ -326,10 +322,8 @@ impl NewtonSystem for GlobalNewton {
         self.lu.factorizations()
     }
 
-    /// `max(||r||, ||rho u_free||)`.
     fn impulse_scale(&self, _: &GlobalProblem, z: &[f64]) -> f64 {
-        let r = &z[self.n + self.p..];
-        crate::csc::dot(r, r).sqrt().max(self.free_scale)
+        impulse_scale(&z[self.n + self.p..], &self.rho, &self.u_free)
     }
 
     /// Residuals, F, A, B at `z`; returns the merit `0.5 ||R||^2`.

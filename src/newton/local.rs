@@ -30,7 +30,8 @@
 
 use super::sparse::{Pattern, SparseLu};
 use super::{
-    check_rho, eval_all, iterate, rho_from_block, Mat3, NewtonOutcome, NewtonSystem, TUNING,
+    check_rho, eval_all, impulse_scale, iterate, rho_from_block, Mat3, NewtonOutcome, NewtonSystem,
+    TUNING,
 };
 use crate::csc::CscMatrix;
 use crate::error::Error;
@@ -277,14 +278,9 @@ impl NewtonSystem for LocalNewton {
         self.lu.factorizations()
     }
 
-    /// `max(||r||, ||rho q||)`.
+    /// The free velocity of the local form is `q`.
     fn impulse_scale(&self, p: &LocalProblem, r: &[f64]) -> f64 {
-        let rho_q =
-            p.q.iter()
-                .enumerate()
-                .map(|(k, q)| (self.rho[k / 3] * q).powi(2))
-                .sum::<f64>();
-        crate::csc::dot(r, r).max(rho_q).sqrt()
+        impulse_scale(r, &self.rho, &p.q)
     }
 
     /// `u = W r + q` and F, A, B at `r`; returns the merit `0.5 ||F||^2`.

@@ -195,6 +195,17 @@ pub(crate) fn iterate<S: NewtonSystem>(
     }
 }
 
+/// `max(||r||, ||rho u_free||)` with `rho` per contact: the impulse scale of
+/// [`NewtonSystem::impulse_scale`], for both forms.
+pub(crate) fn impulse_scale(r: &[f64], rho: &[f64], u_free: &[f64]) -> f64 {
+    let free: f64 = u_free
+        .iter()
+        .enumerate()
+        .map(|(k, u)| (rho[k / 3] * u).powi(2))
+        .sum();
+    crate::csc::dot(r, r).max(free).sqrt()
+}
+
 /// Checks per-contact `rho` values (positive, finite, one per contact).
 pub(crate) fn check_rho(rho: &[f64], nc: usize) -> Result<(), Error> {
     if rho.len() != nc {

@@ -323,3 +323,41 @@ fn the_trace_does_not_change_the_solve() {
         }
     }
 }
+
+/// An iteration limit that strikes on a rejected Anderson step hands back the kept iterate,
+/// not the velocity of the rejected point (the global form's velocity used to be left at
+/// the rejected point: on an engine step, 1.4e-4 handed back against 4.1e-7 kept; here,
+/// at a limit of 127, 5.5e-4 against 2.8e-4).
+#[test]
+fn a_limit_on_a_rejected_anderson_step_hands_back_the_kept_iterate() {
+    let p = read("global/Box_Stacks-i1000-548-50.hdf5");
+    let mut ended_on_rejection = 0;
+    for max_iterations in 120..135 {
+        let s = Settings {
+            anderson: Some(5),
+            trace: true,
+            islands: false,
+            newton_polish: Some(false),
+            max_iterations,
+            ..settings("vp-N-He")
+        };
+        let mut solver = Solver::new(p.clone(), s).unwrap();
+        if solver.solve().unwrap() != Status::MaxIterations {
+            continue;
+        }
+        let kept = solver.trace().last().unwrap();
+        if kept.iteration == solver.stats().iterations {
+            continue; // the last step was kept
+        }
+        ended_on_rejection += 1;
+        let sol = solver.solution();
+        let handed = common::error(&p, &sol.r, &sol.v, &sol.lambda);
+        assert!(
+            handed <= 1.25 * kept.error,
+            "limit {max_iterations}: handed back {handed:e}, kept iterate {:e}",
+            kept.error
+        );
+        assert!((solver.stats().error - handed).abs() <= 1e-6 * handed);
+    }
+    assert!(ended_on_rejection > 0, "no limit struck on a rejected step");
+}

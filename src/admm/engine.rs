@@ -139,6 +139,9 @@ pub fn run(
     let mut aa_next = aa_x.clone();
     let mut plain = aa_x.clone(); // fallback when an accelerated point is rejected
     let mut last_was_aa = false;
+    // Whether the form's own x iterate (the global form's velocity) came from a rejected
+    // step and so does not belong to the state's iterate.
+    let mut x_stale = false;
     let mut res_prev = f64::INFINITY;
 
     let mut rule = RhoAdapter::new(set.variant.rule, l);
@@ -181,6 +184,7 @@ pub fn run(
             let res = (primal_sq + norm2(&diff).powi(2)).sqrt();
             if last_was_aa && res > res_prev {
                 out.aa_rejected += 1;
+                x_stale = true;
                 aa.reset();
                 last_was_aa = false;
                 y_in.copy_from_slice(&plain[..l]);
@@ -194,6 +198,7 @@ pub fn run(
         }
 
         // The state now holds a finite iterate.
+        x_stale = false;
         state.y.copy_from_slice(&y);
         state.zeta.copy_from_slice(&zeta);
         state.ax.copy_from_slice(&ax);
@@ -366,6 +371,12 @@ pub fn run(
     }
     if out.status.is_none() && !out.handed_over {
         out.status = Some(Status::MaxIterations);
+    }
+    if x_stale && out.status != Some(Status::NumericalError) {
+        // The limit struck on a rejected Anderson step: the form's x iterate is that of
+        // the rejected point. Take it from the kept iterate (the plain step the rejection
+        // restarts from), so that what is measured and handed back is one iterate.
+        sp.x_step(&state.y, &state.zeta, state.rho, &mut ax);
     }
     if out.status != Some(Status::Solved) {
         out.error = sp.error(&state.ax, &state.y, &state.zeta, state.rho);

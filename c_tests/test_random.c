@@ -14,7 +14,8 @@
  * consistent with e (SOLVED: e <= tol; otherwise e > tol). TIME_LIMIT fails (no limit is
  * set); MAX_ITERATIONS must come with the iteration count at the cap; NUMERICAL_ERROR is
  * accepted when consistent (with mu = 1e8 the iterates of every variant overflow: the
- * returned answer is then the last finite iterate, with its error). The problems without a
+ * returned answer is then the last finite iterate, with its error), and INFEASIBLE when
+ * the returned impulses carry the certificate tu_check_outcome verifies. The problems without a
  * contact must be SOLVED (v = M^-1 f, nothing to iterate on). At the end a table counts
  * the statuses; a run where no solve reached SOLVED, or none stopped at the cap, fails (the
  * test would then not exercise both sides of the consistency check).
@@ -174,7 +175,7 @@ static tu_problem no_contact(tu_rng *g, int global)
 
 /* ---- solving ------------------------------------------------------------------------------ */
 
-static unsigned counts[5]; /* per status */
+static unsigned counts[6]; /* per status */
 static unsigned n_solves;
 
 static void solve_all_variants(const char *name, const tu_problem *p, int must_solve)
@@ -211,7 +212,7 @@ static void solve_all_variants(const char *name, const tu_problem *p, int must_s
                 CHECK_MSG(o.status == CADMM_STATUS_SOLVED, "%s: not solved (%s)", label,
                           tu_status_name(o.status));
         }
-        if (o.solved_call && o.status >= 0 && o.status <= CADMM_STATUS_STALLED) {
+        if (o.solved_call && o.status >= 0 && o.status <= CADMM_STATUS_INFEASIBLE) {
             ++counts[o.status];
             solved += o.status == CADMM_STATUS_SOLVED;
             capped += o.status == CADMM_STATUS_MAX_ITERATIONS;
@@ -243,7 +244,8 @@ int main(void)
         tu_problem_free(&p);
     }
     printf("%u solves: %u solved, %u max_iterations, %u time_limit, %u numerical_error, "
-           "%u stalled\n", n_solves, counts[0], counts[1], counts[2], counts[3], counts[4]);
+           "%u stalled, %u infeasible\n", n_solves, counts[0], counts[1], counts[2], counts[3],
+           counts[4], counts[5]);
     CHECK_MSG(counts[CADMM_STATUS_SOLVED] > 0 && counts[CADMM_STATUS_MAX_ITERATIONS] > 0,
               "the run did not exercise both SOLVED (%u) and MAX_ITERATIONS (%u)",
               counts[CADMM_STATUS_SOLVED], counts[CADMM_STATUS_MAX_ITERATIONS]);

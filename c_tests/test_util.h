@@ -519,6 +519,7 @@ static inline const char *tu_status_name(int status)
     case 2: return "time_limit";
     case 3: return "numerical_error";
     case 4: return "stalled";
+    case 5: return "infeasible";
     default: return "(not a status)";
     }
 }
@@ -683,7 +684,7 @@ static inline int tu_check_outcome(const char *label, const tu_problem *p, const
     }
     CHECK_MSG(o->stats.status == o->status, "%s: stats.status %d, solve returned %d", label,
               (int)o->stats.status, (int)o->status);
-    CHECK_MSG(o->status >= CADMM_STATUS_SOLVED && o->status <= CADMM_STATUS_STALLED,
+    CHECK_MSG(o->status >= CADMM_STATUS_SOLVED && o->status <= CADMM_STATUS_INFEASIBLE,
               "%s: status %d is not a cadmm_status", label, (int)o->status);
     CHECK_MSG(tu_all_finite(o->r, m) && tu_all_finite(o->u, m), "%s: r or u is not finite (%s)",
               label, tu_status_name(o->status));
@@ -704,7 +705,29 @@ static inline int tu_check_outcome(const char *label, const tu_problem *p, const
               p->is_global ? "H^T v + w" : "W r + q", tu_diff_norm(o->u, u_ref, m));
     free(u_ref);
     R = tu_problem_error_roundoff(p, o->r, o->v, o->lambda) + 1e-15;
-    if (o->status == CADMM_STATUS_SOLVED)
+    if (o->status == CADMM_STATUS_INFEASIBLE) {
+        /* Farkas, checked here on the returned impulses: y = r / ||r|| in the friction cone,
+           pushing nothing (H y or W y about 0), against approaching velocities
+           (y . (u + mu ||u_T|| e_N) < 0). The error may be anything (it fades with r). */
+        double rn = tu_norm(o->r, m), opn = 0, dot = 0, cone = 0, *img;
+        size_t rows = p->is_global ? p->n : m;
+        const tu_csc *op = p->is_global ? &p->H : &p->W;
+        img = (double *)tu_calloc(rows ? rows : 1, sizeof(double));
+        tu_csc_mul(op, o->r, 0, img);
+        for (size_t k = 0; k < (size_t)op->colptr[op->ncols]; ++k) opn += op->values[k] * op->values[k];
+        for (size_t i = 0; i < p->nc; ++i) {
+            const double *ri = o->r + 3 * i, *ui = o->u + 3 * i;
+            double ut = hypot(ui[1], ui[2]);
+            dot += ri[0] * (ui[0] + p->mu[i] * ut) + ri[1] * ui[1] + ri[2] * ui[2];
+            cone = tu_max(cone, hypot(ri[1], ri[2]) - p->mu[i] * ri[0]);
+        }
+        CHECK_MSG(rn > 0 && tu_norm(img, rows) <= 1e-5 * sqrt(opn) * rn && dot < 0 &&
+                      cone <= 1e-6 * rn,
+                  "%s: INFEASIBLE without a certificate (||r|| %.3e, ||op r|| / ||op|| ||r|| "
+                  "%.3e, r . u~ %.3e, cone violation %.3e)", label, rn,
+                  tu_norm(img, rows) / (sqrt(opn) * rn), dot, cone / rn);
+        free(img);
+    } else if (o->status == CADMM_STATUS_SOLVED)
         CHECK_MSG(o->e_ind <= tol * (1.0 + slack) + R, "%s: SOLVED but the independent error "
                   "is %.6e > tol %.1e (round-off estimate %.1e)", label, o->e_ind, tol, R);
     else

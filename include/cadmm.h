@@ -315,8 +315,10 @@ typedef struct cadmm_trace_point {
 #define CADMM_STATUS_STALLED 4
 
 /**
- * No impulse can satisfy some contact: its normal relative velocity cannot change (its
- * normal column of H, or normal row of W, is zero) and it approaches (`w_N < 0`, `q_N < 0`).
+ * The problem has no solution: some contact's normal relative velocity cannot change (its
+ * normal column of H, or normal row of W, is zero) and it approaches (`w_N < 0`, `q_N < 0`),
+ * or the impulses grew along a direction that pushes no body against approaching
+ * velocities (docs/algorithms.md section 13). The solution returned is not one.
  */
 #define CADMM_STATUS_INFEASIBLE 5
 

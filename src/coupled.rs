@@ -285,7 +285,14 @@ impl CoupledSolver {
                 }
             }
         }
-        let status = status.unwrap_or(Status::MaxIterations);
+        let mut status = status.unwrap_or(Status::MaxIterations);
+        if status == Status::Solved && self.form.certifies_infeasibility(&self.state) {
+            // The impulses ran off along a direction that shows there is no solution: the
+            // relative error faded with them (docs/algorithms.md §13). Only a `Solved`
+            // is questioned: on badly conditioned problems (mass ratio 1e6, local form) an
+            // unconverged iterate can pass the test too, and its status is honest already.
+            status = Status::Infeasible;
+        }
         self.stats = Stats {
             status,
             error,

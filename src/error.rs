@@ -103,10 +103,11 @@ pub enum Status {
     /// The method stopped making progress before the tolerance (only the `newton` variant,
     /// which has no ADMM to fall back on); its best iterate is kept.
     Stalled = 4,
-    /// No impulse can satisfy some contact: its normal relative velocity cannot change (its
-    /// normal column of H, or its normal row of W, is zero; or, with islands, all its
-    /// columns of H are empty) and it approaches (docs/algorithms.md §12). The solution
-    /// returned is not one; its error is measured.
+    /// The problem has no solution: some contact's normal relative velocity cannot change
+    /// (its normal column of H, or its normal row of W, is zero; or, with islands, all its
+    /// columns of H are empty) and it approaches (docs/algorithms.md §12), or the impulses
+    /// grew along a direction that pushes no body against approaching velocities, which
+    /// certifies it (§13). The solution returned is not one; its error is measured.
     Infeasible = 5,
 }
 

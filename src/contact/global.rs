@@ -9,6 +9,7 @@ use super::{
     ContactForm, NewValues,
 };
 use crate::admm::{EngineState, Splitting};
+use crate::certificate::certifies_infeasibility;
 use crate::cone::{get3, project_dual_cone, set3};
 use crate::csc::norm2;
 use crate::error::Error;
@@ -424,6 +425,20 @@ impl ContactForm for GlobalSplitting {
     fn blocked_contact(&self) -> Option<usize> {
         (0..self.p.n_contacts())
             .find(|&i| self.p.w[3 * i] < 0.0 && self.p.h.col(3 * i).all(|(_, x)| x == 0.0))
+    }
+
+    fn certifies_infeasibility(&self, state: &EngineState) -> bool {
+        let s = self.solution(state);
+        let mut image = vec![0.0; self.p.n()];
+        self.p.h.mul_vec(1.0, &s.r, 0.0, &mut image);
+        certifies_infeasibility(
+            &s.r,
+            &image,
+            self.p.h.norm_fro(),
+            &s.u,
+            &self.p.w,
+            &self.p.mu,
+        )
     }
 
     fn refactorizations(&self) -> usize {

@@ -5,6 +5,7 @@
 
 use super::{active_rows, count_rows, de_saxce_shift, initial_shift, rows_missing, ContactForm};
 use crate::admm::{EngineState, Splitting};
+use crate::certificate::certifies_infeasibility;
 use crate::cone::{de_saxce, get3, project_cone, set3};
 use crate::csc::{norm2, CscMatrix};
 use crate::error::Error;
@@ -298,6 +299,20 @@ impl ContactForm for LocalSplitting {
                 self.p.q[3 * i] < 0.0 && entries.iter().all(|&k| self.p.w.values()[k] == 0.0)
             })
             .map(|(i, _)| i)
+    }
+
+    fn certifies_infeasibility(&self, state: &EngineState) -> bool {
+        let s = self.solution(state);
+        let mut image = vec![0.0; s.r.len()];
+        self.p.w.mul_vec(1.0, &s.r, 0.0, &mut image);
+        certifies_infeasibility(
+            &s.r,
+            &image,
+            self.p.w.norm_fro(),
+            &s.u,
+            &self.p.q,
+            &self.p.mu,
+        )
     }
 
     fn refactorizations(&self) -> usize {

@@ -63,6 +63,10 @@ pub(crate) trait ContactForm: Splitting + Send {
     /// of H, or its normal row of W, is zero) and which approaches there (`w_N < 0`, or
     /// `q_N < 0`): Coulomb's law needs `u_N >= 0`, so the problem has no solution.
     fn blocked_contact(&self) -> Option<usize>;
+    /// True when the impulses at the engine state certify that the problem has no
+    /// solution ([`crate::certificate`]): they grew along a null direction of the
+    /// operator against approaching velocities.
+    fn certifies_infeasibility(&self, state: &EngineState) -> bool;
     /// Numeric factorizations so far.
     fn refactorizations(&self) -> usize;
     /// The Newton phase from the iterate in `state`: when it ends below the error of its

@@ -47,8 +47,10 @@ pub const CADMM_STATUS_NUMERICAL_ERROR: cadmm_status = 3;
 /// The method stopped making progress before the tolerance (only the "newton" variant,
 /// which has no ADMM to fall back on); the solution is its best iterate.
 pub const CADMM_STATUS_STALLED: cadmm_status = 4;
-/// No impulse can satisfy some contact: its normal relative velocity cannot change (its
-/// normal column of H, or normal row of W, is zero) and it approaches (`w_N < 0`, `q_N < 0`).
+/// The problem has no solution: some contact's normal relative velocity cannot change (its
+/// normal column of H, or normal row of W, is zero) and it approaches (`w_N < 0`, `q_N < 0`),
+/// or the impulses grew along a direction that pushes no body against approaching
+/// velocities (docs/algorithms.md section 13). The solution returned is not one.
 pub const CADMM_STATUS_INFEASIBLE: cadmm_status = 5;
 
 /// The C status code of a [`Status`].

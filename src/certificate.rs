@@ -1,0 +1,126 @@
+//! Infeasibility certificate of a finished solve (docs/algorithms.md §13).
+//!
+//! When a problem has no solution, ADMM's impulses grow without bound along a direction
+//! `y = r / ||r||` of the friction cone that pushes no body (`H y = 0`, or `W y = 0`) and
+//! meets approaching velocities (`y . u~ < 0`, `u~ = u + mu ||u_T|| e_N`). The relative
+//! error measure then fades with `||r||` and can fall below the tolerance, so a
+//! "solution" that lets contacts penetrate at their free speed would pass. Coulomb's law
+//! needs `u~ . r = 0`; at such an iterate the product is of the order of `||r|| ||u~||`,
+//! which no solved problem shows: the solve is reported `Infeasible` instead.
+//!
+//! Both tests are relative, so the certificate does not depend on the units: the
+//! impulses must be `NULL_SPACE` close to the null space of the operator, and the
+//! Signorini defect at least `DEFECT` of the velocity scale.
+
+use crate::cone::{de_saxce_term, get3};
+use crate::csc::{dot, norm2};
+
+/// `||H r|| <= NULL_SPACE ||H||_F ||r||`: the impulses push (almost) nothing.
+const NULL_SPACE: f64 = 1e-6;
+/// `-r . u~ >= DEFECT ||r|| max(||u~||, ||u_free||)`: they meet approaching velocities.
+const DEFECT: f64 = 0.1;
+
+/// True when `r` certifies that the problem has no solution: `image` is `H r` (global
+/// form) or `W r` (local form), `operator_norm` the Frobenius norm of that operator, `u`
+/// the local velocity at the iterate, `u_free` the free velocity (`w` or `q`).
+pub(crate) fn certifies_infeasibility(
+    r: &[f64],
+    image: &[f64],
+    operator_norm: f64,
+    u: &[f64],
+    u_free: &[f64],
+    mu: &[f64],
+) -> bool {
+    let r_norm = norm2(r);
+    if !(r_norm > 0.0 && r_norm.is_finite()) {
+        return false;
+    }
+    if norm2(image) > NULL_SPACE * operator_norm * r_norm {
+        return false;
+    }
+    let mut u_tilde = u.to_vec();
+    for (i, &m) in mu.iter().enumerate() {
+        u_tilde[3 * i] += de_saxce_term(get3(u, i), m);
+    }
+    let scale = norm2(&u_tilde).max(norm2(u_free));
+    -dot(r, &u_tilde) >= DEFECT * r_norm * scale
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One contact, `mu = 1`: `y = (1, 1, 0)` lies on the cone.
+    const MU: [f64; 1] = [1.0];
+
+    #[test]
+    fn impulses_in_the_null_space_against_approach_certify() {
+        let r = [1e10, 1e10, 0.0];
+        let u = [-5.0, 0.0, 0.0];
+        assert!(certifies_infeasibility(&r, &[1.0], 1.0, &u, &u, &MU));
+    }
+
+    #[test]
+    fn impulses_that_push_a_body_do_not_certify() {
+        let r = [1e10, 1e10, 0.0];
+        let u = [-5.0, 0.0, 0.0];
+        assert!(!certifies_infeasibility(&r, &[1e8], 1.0, &u, &u, &MU));
+    }
+
+    #[test]
+    fn complementary_impulses_do_not_certify() {
+        // A loaded sticking contact (u = 0), or a loaded contact that separates slowly
+        // relative to a large free velocity: the Signorini defect is small.
+        let r = [1e10, 1e10, 0.0];
+        assert!(!certifies_infeasibility(
+            &r,
+            &[0.0],
+            1.0,
+            &[0.0; 3],
+            &[-5.0, 0.0, 0.0],
+            &MU
+        ));
+        let u = [-1e-3, 0.0, 0.0];
+        assert!(!certifies_infeasibility(
+            &r,
+            &[0.0],
+            1.0,
+            &u,
+            &[-5.0, 0.0, 0.0],
+            &MU
+        ));
+    }
+
+    #[test]
+    fn zero_or_non_finite_impulses_do_not_certify() {
+        let u = [-5.0, 0.0, 0.0];
+        assert!(!certifies_infeasibility(
+            &[0.0; 3],
+            &[0.0],
+            1.0,
+            &u,
+            &u,
+            &MU
+        ));
+        let r = [f64::INFINITY, 0.0, 0.0];
+        assert!(!certifies_infeasibility(&r, &[0.0], 1.0, &u, &u, &MU));
+    }
+
+    #[test]
+    fn the_certificate_does_not_depend_on_the_units() {
+        let (r, u) = ([1e10, 1e10, 0.0], [-5.0, 0.0, 0.0]);
+        for (a, b) in [(1e-6, 1e3), (1e6, 1e-3), (1.0, 1e8)] {
+            let rs = r.map(|x| a * x);
+            let us = u.map(|x| b * x);
+            assert!(certifies_infeasibility(&rs, &[a * 1.0], 1.0, &us, &us, &MU));
+            assert!(!certifies_infeasibility(
+                &rs,
+                &[a * 1e8],
+                1.0,
+                &us,
+                &us,
+                &MU
+            ));
+        }
+    }
+}

@@ -9,6 +9,7 @@
 //! problem, in one array; the Newton solver, its problem and the measure's vectors live in
 //! a [`SmallWork`] that every island of one size shares (one per thread).
 
+use crate::certificate::certifies_infeasibility;
 use crate::csc::CscMatrix;
 use crate::error::{Error, Status};
 use crate::islands::{contact_rows, Part};
@@ -460,7 +461,10 @@ impl SmallIsland {
         if self.global {
             data.velocities(&self.r, &mut self.v);
         }
-        let status = if out.converged() {
+        let status = if out.converged() && run_off(local, &self.r) {
+            // Met only because the impulses ran off (docs/algorithms.md §13).
+            Status::Infeasible
+        } else if out.converged() {
             Status::Solved
         } else if deadline.is_some_and(|d| Instant::now() >= d) {
             Status::TimeLimit
@@ -533,5 +537,50 @@ impl SmallIsland {
     /// The trace of the last solve: its one Newton phase, when tracing.
     pub(crate) fn trace(&self) -> &[TracePoint] {
         self.last_trace.as_slice()
+    }
+}
+
+/// The certificate of [`crate::certificate`] on the island's Delassus form: `W r` and
+/// `u = W r + q` at the impulses `r`.
+fn run_off(local: &LocalProblem, r: &[f64]) -> bool {
+    let mut image = vec![0.0; r.len()];
+    local.w.mul_vec(1.0, r, 0.0, &mut image);
+    let u: Vec<f64> = image.iter().zip(&local.q).map(|(a, b)| a + b).collect();
+    certifies_infeasibility(r, &image, local.w.norm_fro(), &u, &local.q, &local.mu)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::csc::CscMatrix;
+
+    /// The Delassus form of the fuzzed one-velocity problem with no solution
+    /// (`tests/hybrid.rs`): `W = h h^T / m`, `q = w + h f / m`.
+    fn no_solution() -> LocalProblem {
+        let (m, h, f, w) = (
+            10.666666666666666,
+            [1.0, -2.6666666666666665, -1.0],
+            -8.0,
+            -8.0,
+        );
+        let dense: Vec<f64> = (0..9).map(|k| h[k % 3] * h[k / 3] / m).collect();
+        LocalProblem::new(
+            CscMatrix::from_dense("W", 3, 3, &dense).unwrap(),
+            h.iter().map(|hi| w + hi * f / m).collect(),
+            vec![1.3],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn run_off_impulses_certify_and_a_load_does_not() {
+        let p = no_solution();
+        // A direction of the cone with h . y = 0 (y_N - 2.67 y_T1 - y_T2 = 0).
+        let y = [0.68, -0.019, 0.68 + 2.6666666666666665 * 0.019];
+        let r: Vec<f64> = y.iter().map(|x| 1e10 * x).collect();
+        assert!(run_off(&p, &r));
+        // The same size along the normal pushes the body: no certificate.
+        assert!(!run_off(&p, &[1e10, 0.0, 0.0]));
+        assert!(!run_off(&p, &[0.0; 3]));
     }
 }

@@ -171,6 +171,41 @@ fn warm_start_from_a_solution_converges_at_once() {
     assert!(common::error(&p, &w.r, &w.v, &w.lambda) <= TOL);
 }
 
+/// Newton alone starts from the warm start's velocity: the check for contacts that all
+/// separate computed the free velocity where the warm start's velocity was kept, so Newton
+/// started from `M^-1 f` with the warm start's impulses.
+#[test]
+fn newton_starts_from_the_warm_velocity() {
+    for islands in [false, true] {
+        let p = read("global/Box_Stacks-i0122-82-5.hdf5");
+        let loose = Settings {
+            tolerance: 1e-5,
+            islands,
+            ..settings("auto")
+        };
+        let mut solver = Solver::new(p.clone(), loose).unwrap();
+        assert_eq!(solver.solve().unwrap(), Status::Solved);
+        let s = solver.solution();
+        let start = common::error(&p, &s.r, &s.v, &s.lambda);
+        let newton = Settings {
+            tolerance: 1e-12,
+            max_iterations: 2,
+            islands,
+            ..settings("newton")
+        };
+        let mut solver = Solver::new(p.clone(), newton).unwrap();
+        solver.warm_start(&s.r, Some(&s.v)).unwrap();
+        solver.solve().unwrap();
+        let w = solver.solution();
+        let e = common::error(&p, &w.r, &w.v, &w.lambda);
+        // Newton hands back its best iterate, the start included.
+        assert!(
+            e <= start * (1.0 + 1e-9),
+            "islands {islands}: {e:e} from {start:e}"
+        );
+    }
+}
+
 #[test]
 fn numeric_update_with_the_same_pattern() {
     // Two Box_Stacks steps have different patterns; scale one problem's data instead.

@@ -339,8 +339,9 @@ impl ContactForm for GlobalSplitting {
         if self.p.joints.is_some() || self.m_mirror.is_none() {
             return false;
         }
-        let n = self.p.n();
-        let v = &mut self.sol[..n];
+        // In work space: when the contacts do not all separate, the velocity of a warm
+        // start (what a Newton phase starts from) must stay.
+        let v = &mut self.work_n;
         v.copy_from_slice(&self.p.f);
         self.mass.solve_in_place(v);
         self.work_m.copy_from_slice(&self.p.w);
@@ -348,6 +349,8 @@ impl ContactForm for GlobalSplitting {
         if !(0..self.p.n_contacts()).all(|i| self.work_m[3 * i] >= 0.0) {
             return false;
         }
+        let n = self.p.n();
+        self.sol[..n].copy_from_slice(&self.work_n);
         state.zeta.fill(0.0);
         state.y.fill(0.0);
         true

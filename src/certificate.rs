@@ -13,12 +13,20 @@
 //! Signorini defect at least `DEFECT` of the velocity scale.
 
 use crate::cone::{de_saxce_term, get3};
-use crate::csc::{dot, norm2};
+use crate::csc::{dot, norm2, CscMatrix};
 
 /// `||H r|| <= NULL_SPACE ||H||_F ||r||`: the impulses push (almost) nothing.
 const NULL_SPACE: f64 = 1e-6;
 /// `-r . u~ >= DEFECT ||r|| max(||u~||, ||u_free||)`: they meet approaching velocities.
 const DEFECT: f64 = 0.1;
+
+/// [`certifies_infeasibility`] with the image `op r` computed here: `op` is `H` (global
+/// form) or `W` (local form).
+pub(crate) fn run_off(op: &CscMatrix, r: &[f64], u: &[f64], u_free: &[f64], mu: &[f64]) -> bool {
+    let mut image = vec![0.0; op.nrows()];
+    op.mul_vec(1.0, r, 0.0, &mut image);
+    certifies_infeasibility(r, &image, op.norm_fro(), u, u_free, mu)
+}
 
 /// True when `r` certifies that the problem has no solution: `image` is `H r` (global
 /// form) or `W r` (local form), `operator_norm` the Frobenius norm of that operator, `u`

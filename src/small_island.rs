@@ -9,7 +9,6 @@
 //! problem, in one array; the Newton solver, its problem and the measure's vectors live in
 //! a [`SmallWork`] that every island of one size shares (one per thread).
 
-use crate::certificate::certifies_infeasibility;
 use crate::csc::CscMatrix;
 use crate::error::{Error, Status};
 use crate::islands::{contact_rows, Part};
@@ -540,13 +539,11 @@ impl SmallIsland {
     }
 }
 
-/// The certificate of [`crate::certificate`] on the island's Delassus form: `W r` and
-/// `u = W r + q` at the impulses `r`.
+/// The certificate of [`crate::certificate`] on the island's Delassus form, at `r`.
 fn run_off(local: &LocalProblem, r: &[f64]) -> bool {
-    let mut image = vec![0.0; r.len()];
-    local.w.mul_vec(1.0, r, 0.0, &mut image);
-    let u: Vec<f64> = image.iter().zip(&local.q).map(|(a, b)| a + b).collect();
-    certifies_infeasibility(r, &image, local.w.norm_fro(), &u, &local.q, &local.mu)
+    let mut u = local.q.clone();
+    local.w.mul_vec(1.0, r, 1.0, &mut u);
+    crate::certificate::run_off(&local.w, r, &u, &local.q, &local.mu)
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@ use super::{
     ContactForm, NewValues,
 };
 use crate::admm::{EngineState, Splitting};
-use crate::certificate::certifies_infeasibility;
+use crate::certificate::run_off;
 use crate::cone::{get3, project_dual_cone, set3};
 use crate::csc::norm2;
 use crate::error::Error;
@@ -432,16 +432,7 @@ impl ContactForm for GlobalSplitting {
 
     fn certifies_infeasibility(&self, state: &EngineState) -> bool {
         let s = self.solution(state);
-        let mut image = vec![0.0; self.p.n()];
-        self.p.h.mul_vec(1.0, &s.r, 0.0, &mut image);
-        certifies_infeasibility(
-            &s.r,
-            &image,
-            self.p.h.norm_fro(),
-            &s.u,
-            &self.p.w,
-            &self.p.mu,
-        )
+        run_off(&self.p.h, &s.r, &s.u, &self.p.w, &self.p.mu)
     }
 
     fn refactorizations(&self) -> usize {

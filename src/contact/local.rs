@@ -5,7 +5,7 @@
 
 use super::{active_rows, count_rows, de_saxce_shift, initial_shift, rows_missing, ContactForm};
 use crate::admm::{EngineState, Splitting};
-use crate::certificate::certifies_infeasibility;
+use crate::certificate::run_off;
 use crate::cone::{de_saxce, get3, project_cone, set3};
 use crate::csc::{norm2, CscMatrix};
 use crate::error::Error;
@@ -303,16 +303,7 @@ impl ContactForm for LocalSplitting {
 
     fn certifies_infeasibility(&self, state: &EngineState) -> bool {
         let s = self.solution(state);
-        let mut image = vec![0.0; s.r.len()];
-        self.p.w.mul_vec(1.0, &s.r, 0.0, &mut image);
-        certifies_infeasibility(
-            &s.r,
-            &image,
-            self.p.w.norm_fro(),
-            &s.u,
-            &self.p.q,
-            &self.p.mu,
-        )
+        run_off(&self.p.w, &s.r, &s.u, &self.p.q, &self.p.mu)
     }
 
     fn refactorizations(&self) -> usize {

@@ -294,12 +294,14 @@ typedef struct cadmm_trace_point {
 #define CADMM_STATUS_SOLVED 0
 
 /**
- * The iteration limit was reached first.
+ * The iteration limit was reached first; the solution is the best iterate the last ADMM
+ * run measured.
  */
 #define CADMM_STATUS_MAX_ITERATIONS 1
 
 /**
- * The time limit was reached first.
+ * The time limit was reached first; the solution is the best iterate measured, as for
+ * `CADMM_STATUS_MAX_ITERATIONS`.
  */
 #define CADMM_STATUS_TIME_LIMIT 2
 
@@ -629,7 +631,8 @@ cadmm_result cadmm_solver_warm_start(struct cadmm_solver *sv, const double *r, c
 /**
  * Runs ADMM until the error measure reaches the tolerance or a limit is hit, and writes
  * how it ended to `*status` (`CADMM_STATUS_*`). Hitting a limit is a status, not a
- * failure: the call returns `CADMM_OK` and the solution is the last finite iterate.
+ * failure: the call returns `CADMM_OK` and the solution is the best iterate ADMM measured
+ * (the last finite one after a non-finite iterate).
  *
  * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_NOT_POSITIVE_DEFINITE`/`CADMM_ERR_SINGULAR`
  * (a refactorization for a new rho failed), and the code of a failed

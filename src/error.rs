@@ -94,9 +94,11 @@ impl std::error::Error for Error {}
 pub enum Status {
     /// The error measure reached the tolerance.
     Solved = 0,
-    /// The iteration limit was reached first.
+    /// The iteration limit was reached first; the best iterate the last ADMM run measured
+    /// is kept.
     MaxIterations = 1,
-    /// The time limit was reached first.
+    /// The time limit was reached first; as for `MaxIterations`, the best measured iterate
+    /// is kept.
     TimeLimit = 2,
     /// An iterate became non-finite; the last finite iterate is kept.
     NumericalError = 3,

@@ -505,7 +505,8 @@ impl Solver {
         self.stats.setup_seconds = setup;
     }
 
-    /// The current solution (the last finite iterate), assembled from the islands.
+    /// The current solution (the iterate the last solve handed back), assembled from the
+    /// islands.
     pub fn solution(&self) -> Solution {
         match &self.layout {
             Layout::Whole(s) => s.solution(),

@@ -151,6 +151,8 @@ pub fn run(
     let mut recent = vec![f64::INFINITY; stall_checks];
     let mut checks = 0usize;
     let mut last_check_error = f64::INFINITY;
+    // The iterate with the smallest measured error, handed back when a limit ends the run.
+    let mut best = BestIterate::new();
     let mut inner_tol = if set.s_update == SUpdate::External {
         1e-3f64.max(set.tolerance)
     } else {
@@ -233,6 +235,7 @@ pub fn run(
             }
             if check {
                 out.error = error;
+                best.offer(error, state, sp);
             }
         }
         if check {
@@ -381,7 +384,55 @@ pub fn run(
     if out.status != Some(Status::Solved) {
         out.error = sp.error(&state.ax, &state.y, &state.zeta, state.rho);
     }
+    if matches!(out.status, Some(Status::MaxIterations | Status::TimeLimit))
+        && best.error < out.error
+    {
+        // ADMM's error is not monotone: a limit hands back the best iterate of the run,
+        // measured again.
+        best.restore(state, sp);
+        out.error = sp.error(&state.ax, &state.y, &state.zeta, state.rho);
+    }
     Ok(out)
+}
+
+/// The iterate with the smallest measured error of a run: the engine state and the
+/// splitting's own part ([`Splitting::save_iterate`]), allocated on the first offer.
+struct BestIterate {
+    error: f64,
+    state: Option<EngineState>,
+    own: Vec<f64>,
+}
+
+impl BestIterate {
+    fn new() -> Self {
+        Self {
+            error: f64::INFINITY,
+            state: None,
+            own: Vec::new(),
+        }
+    }
+
+    /// Keeps the current iterate when `error` is the smallest so far.
+    fn offer(&mut self, error: f64, state: &EngineState, sp: &dyn Splitting) {
+        if error >= self.error {
+            return;
+        }
+        match &mut self.state {
+            Some(kept) => kept.clone_from(state),
+            None => self.state = Some(state.clone()),
+        }
+        self.own.clear();
+        sp.save_iterate(&mut self.own);
+        self.error = error;
+    }
+
+    /// Makes the kept iterate the current one.
+    fn restore(&self, state: &mut EngineState, sp: &mut dyn Splitting) {
+        if let Some(kept) = &self.state {
+            state.clone_from(kept);
+            sp.restore_iterate(&self.own);
+        }
+    }
 }
 
 fn norm_diff_sq(a: &[f64], b: &[f64]) -> f64 {

@@ -47,6 +47,12 @@ pub trait Splitting {
     }
     /// The problem's own error measure at the current iterate (after `x_step`).
     fn error(&mut self, ax: &[f64], y: &[f64], zeta: &[f64], rho: f64) -> f64;
+    /// Appends to `into` the splitting's own part of the current iterate, what `error` and
+    /// the next steps read beyond the engine state (the global form's velocity, the shift
+    /// `s`); nothing by default.
+    fn save_iterate(&self, _into: &mut Vec<f64>) {}
+    /// Restores what [`Splitting::save_iterate`] saved.
+    fn restore_iterate(&mut self, _from: &[f64]) {}
 }
 
 /// When the s parameter is updated.

@@ -280,6 +280,18 @@ impl Splitting for GlobalSplitting {
         change
     }
 
+    fn save_iterate(&self, into: &mut Vec<f64>) {
+        into.extend_from_slice(&self.sol);
+        into.extend_from_slice(&self.phi);
+    }
+
+    fn restore_iterate(&mut self, from: &[f64]) {
+        let (sol, phi) = from.split_at(self.sol.len());
+        self.sol.copy_from_slice(sol);
+        self.phi.copy_from_slice(phi);
+        self.refresh_c();
+    }
+
     fn error(&mut self, _ax: &[f64], _y: &[f64], zeta: &[f64], rho: f64) -> f64 {
         for i in 0..zeta.len() {
             self.r[i] = -rho * zeta[i];

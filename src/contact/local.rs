@@ -192,6 +192,15 @@ impl Splitting for LocalSplitting {
         change
     }
 
+    fn save_iterate(&self, into: &mut Vec<f64>) {
+        into.extend_from_slice(&self.phi);
+    }
+
+    fn restore_iterate(&mut self, from: &[f64]) {
+        self.phi.copy_from_slice(from);
+        self.refresh();
+    }
+
     fn error(&mut self, _ax: &[f64], y: &[f64], _zeta: &[f64], _rho: f64) -> f64 {
         local_error_with(&self.p, y, &mut self.measure)
     }

@@ -38,9 +38,11 @@ pub type cadmm_status = i32;
 
 /// The error measure reached the tolerance.
 pub const CADMM_STATUS_SOLVED: cadmm_status = 0;
-/// The iteration limit was reached first.
+/// The iteration limit was reached first; the solution is the best iterate the last ADMM
+/// run measured.
 pub const CADMM_STATUS_MAX_ITERATIONS: cadmm_status = 1;
-/// The time limit was reached first.
+/// The time limit was reached first; the solution is the best iterate measured, as for
+/// `CADMM_STATUS_MAX_ITERATIONS`.
 pub const CADMM_STATUS_TIME_LIMIT: cadmm_status = 2;
 /// An iterate became non-finite; the solution is the last finite iterate.
 pub const CADMM_STATUS_NUMERICAL_ERROR: cadmm_status = 3;

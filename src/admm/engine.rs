@@ -151,8 +151,9 @@ pub fn run(
     let mut recent = vec![f64::INFINITY; stall_checks];
     let mut checks = 0usize;
     let mut last_check_error = f64::INFINITY;
-    // The iterate with the smallest measured error, handed back when a limit ends the run.
-    let mut best = BestIterate::new();
+    // The iterate with the smallest measured error, handed back when a limit ends the run
+    // (its buffers allocated here: the loop does not allocate).
+    let mut best = BestIterate::new(state, sp);
     let mut inner_tol = if set.s_update == SUpdate::External {
         1e-3f64.max(set.tolerance)
     } else {
@@ -396,19 +397,23 @@ pub fn run(
 }
 
 /// The iterate with the smallest measured error of a run: the engine state and the
-/// splitting's own part ([`Splitting::save_iterate`]), allocated on the first offer.
+/// splitting's own part ([`Splitting::save_iterate`]). Offers copy into the buffers made
+/// by [`BestIterate::new`].
 struct BestIterate {
     error: f64,
-    state: Option<EngineState>,
+    state: EngineState,
     own: Vec<f64>,
 }
 
 impl BestIterate {
-    fn new() -> Self {
+    /// Buffers shaped like `state` and the splitting's own part; no iterate kept yet.
+    fn new(state: &EngineState, sp: &dyn Splitting) -> Self {
+        let mut own = Vec::new();
+        sp.save_iterate(&mut own);
         Self {
             error: f64::INFINITY,
-            state: None,
-            own: Vec::new(),
+            state: state.clone(),
+            own,
         }
     }
 
@@ -417,21 +422,23 @@ impl BestIterate {
         if error >= self.error {
             return;
         }
-        match &mut self.state {
-            Some(kept) => kept.clone_from(state),
-            None => self.state = Some(state.clone()),
-        }
+        self.state.y.copy_from_slice(&state.y);
+        self.state.zeta.copy_from_slice(&state.zeta);
+        self.state.ax.copy_from_slice(&state.ax);
+        self.state.rho = state.rho;
+        // Within the capacity `new` gave it.
         self.own.clear();
         sp.save_iterate(&mut self.own);
         self.error = error;
     }
 
-    /// Makes the kept iterate the current one.
+    /// Makes the kept iterate the current one (only after an offer was kept).
     fn restore(&self, state: &mut EngineState, sp: &mut dyn Splitting) {
-        if let Some(kept) = &self.state {
-            state.clone_from(kept);
-            sp.restore_iterate(&self.own);
-        }
+        state.y.copy_from_slice(&self.state.y);
+        state.zeta.copy_from_slice(&self.state.zeta);
+        state.ax.copy_from_slice(&self.state.ax);
+        state.rho = self.state.rho;
+        sp.restore_iterate(&self.own);
     }
 }
 

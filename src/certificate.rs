@@ -13,7 +13,7 @@
 //! Signorini defect at least `DEFECT` of the velocity scale.
 
 use crate::cone::{de_saxce_term, get3};
-use crate::csc::{dot, norm2, CscMatrix};
+use crate::csc::{norm2, CscMatrix};
 
 /// `||H r|| <= NULL_SPACE ||H||_F ||r||`: the impulses push (almost) nothing.
 const NULL_SPACE: f64 = 1e-6;
@@ -46,12 +46,17 @@ pub(crate) fn certifies_infeasibility(
     if norm2(image) > NULL_SPACE * operator_norm * r_norm {
         return false;
     }
-    let mut u_tilde = u.to_vec();
+    // r . u~ and ||u~||, with u~ = u + Phi(u) taken contact by contact.
+    let (mut r_dot, mut u_sq) = (0.0, 0.0);
     for (i, &m) in mu.iter().enumerate() {
-        u_tilde[3 * i] += de_saxce_term(get3(u, i), m);
+        let mut ui = get3(u, i);
+        ui[0] += de_saxce_term(ui, m);
+        let ri = get3(r, i);
+        r_dot += ri[0] * ui[0] + ri[1] * ui[1] + ri[2] * ui[2];
+        u_sq += ui[0] * ui[0] + ui[1] * ui[1] + ui[2] * ui[2];
     }
-    let scale = norm2(&u_tilde).max(norm2(u_free));
-    -dot(r, &u_tilde) >= DEFECT * r_norm * scale
+    let scale = u_sq.sqrt().max(norm2(u_free));
+    -r_dot >= DEFECT * r_norm * scale
 }
 
 #[cfg(test)]

@@ -127,12 +127,23 @@ pub(crate) fn iterate<S: NewtonSystem>(
     let mut rel = relative(merit, s.impulse_scale(p, x));
     best.copy_from_slice(x);
     let mut best_err = err;
+    let mut best_rel = rel;
+    // Iterations since the measure first met the tolerance (see `confirmed` below).
+    let mut met_for: Option<usize> = None;
     let mut reg = Regularization::new(s.alpha_cap());
     let mut window = MeritWindow::new(merit);
     let (mut iterations, mut last_improvement) = (0, 0);
     let status = loop {
         if best_err <= tol {
-            break NewtonStatus::Converged;
+            // The measure adds velocities to impulses, so whether an iterate meets it
+            // depends on the units; the iterates do not. Up to `TUNING.confirm` more steps
+            // are taken until the unit-free residual agrees, so that the same iterate is
+            // handed back in any units (the measure alone would stop a step earlier or
+            // later when the mass unit changes).
+            let extra = *met_for.get_or_insert(iterations);
+            if best_rel <= TUNING.alpha_per_residual * tol || iterations - extra >= TUNING.confirm {
+                break NewtonStatus::Converged;
+            }
         }
         if !merit.is_finite() {
             break NewtonStatus::Failed(FailReason::NonFinite);
@@ -176,11 +187,24 @@ pub(crate) fn iterate<S: NewtonSystem>(
         rel = relative(merit, s.impulse_scale(p, x));
         window.push(merit);
         err = s.error(p, x);
-        if err < best_err {
+        // Past the tolerance, the best is the unit-free one among the iterates that meet it.
+        let better = if best_err <= tol {
+            err <= tol && rel < best_rel
+        } else {
+            err < best_err
+        };
+        if better {
             best_err = err;
+            best_rel = rel;
             last_improvement = iterations;
             best.copy_from_slice(x);
         }
+    };
+    // A step that fails while confirming leaves a best iterate that meets the tolerance.
+    let status = if best_err <= tol {
+        NewtonStatus::Converged
+    } else {
+        status
     };
     x.copy_from_slice(best);
     let mut error = best_err;
@@ -244,6 +268,9 @@ pub(crate) struct Tuning {
     pub stall: usize,
     /// Number of past merits the non-monotone line search compares with.
     pub window: usize,
+    /// Steps taken at most after the error measure meets the tolerance, for the unit-free
+    /// residual to meet it too.
+    pub confirm: usize,
 }
 
 /// The values used (chosen on the random box stacks of the tests).
@@ -259,6 +286,7 @@ pub(crate) const TUNING: Tuning = Tuning {
     alpha_per_residual: 3.0,
     stall: 60,
     window: 8,
+    confirm: 2,
 };
 
 /// The last [`Tuning::window`] merit values: the line search asks for a decrease relative

@@ -13,7 +13,9 @@ use crate::islands::{
 };
 use crate::measure::{global_error_with, local_error_with, Floors, MeasureWork, Scales};
 use crate::problem::{check_same_sizes, NewValues, Problem};
-use crate::settings::{NewtonUse, Resolved, Settings, ISLAND_ROUNDS, NEWTON_FIRST_STEPS};
+use crate::settings::{
+    NewtonUse, Resolved, Settings, ISLAND_ROUNDS, NEWTON_FIRST_STEPS, ROUND_OFF_MARGIN,
+};
 use crate::small_island::{Site, SmallIsland, SmallWork};
 use crate::stats::{Stats, TracePoint};
 use std::sync::Mutex;
@@ -35,6 +37,8 @@ pub struct Solution {
 /// Solves one frictional contact problem, and its successors with the same pattern.
 pub struct Solver {
     settings: Settings,
+    /// The settings the parts work to: the tolerance less [`ROUND_OFF_MARGIN`].
+    inner: Settings,
     resolved: Resolved,
     layout: Layout,
     stats: Stats,
@@ -360,6 +364,12 @@ impl Solver {
     pub fn new(problem: Problem, settings: Settings) -> Result<Self, Error> {
         let t0 = Instant::now();
         settings.validate()?;
+        let user = settings;
+        // What the parts work to; `settings()` hands back the user's.
+        let settings = Settings {
+            tolerance: user.tolerance * (1.0 - ROUND_OFF_MARGIN),
+            ..user.clone()
+        };
         let partition = match (&problem, settings.islands) {
             (_, false) => None,
             (Problem::Global(g), true) => Some(partition_global(g)),
@@ -378,8 +388,9 @@ impl Solver {
             }
         };
         let mut solver = Self {
-            resolved: settings.resolved(),
-            settings,
+            resolved: user.resolved(),
+            settings: user,
+            inner: settings,
             layout,
             stats: Stats::default(),
             island_stats: Vec::new(),
@@ -444,7 +455,7 @@ impl Solver {
                 let status = s.solve()?;
                 (status, s.stats().error)
             }
-            Layout::Split(split) => split.solve(&self.settings, t0)?,
+            Layout::Split(split) => split.solve(&self.inner, t0)?,
         };
         self.collect_stats(status, error, t0.elapsed().as_secs_f64());
         Ok(status)

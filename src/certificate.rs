@@ -14,18 +14,27 @@
 
 use crate::cone::{de_saxce_term, get3};
 use crate::csc::{norm2, CscMatrix};
+use crate::problem::LocalProblem;
 
 /// `||H r|| <= NULL_SPACE ||H||_F ||r||`: the impulses push (almost) nothing.
 const NULL_SPACE: f64 = 1e-6;
 /// `-r . u~ >= DEFECT ||r|| max(||u~||, ||u_free||)`: they meet approaching velocities.
 const DEFECT: f64 = 0.1;
 
-/// [`certifies_infeasibility`] with the image `op r` computed here: `op` is `H` (global
-/// form) or `W` (local form).
+/// [`certifies_infeasibility`] on the global form, with the image `H r` computed here.
 pub(crate) fn run_off(op: &CscMatrix, r: &[f64], u: &[f64], u_free: &[f64], mu: &[f64]) -> bool {
     let mut image = vec![0.0; op.nrows()];
     op.mul_vec(1.0, r, 0.0, &mut image);
     certifies_infeasibility(r, &image, op.norm_fro(), u, u_free, mu)
+}
+
+/// [`certifies_infeasibility`] on the local form at `r`: one product `W r`, which is both
+/// the image and, with `q`, the velocity.
+pub(crate) fn local_run_off(p: &LocalProblem, r: &[f64]) -> bool {
+    let mut image = vec![0.0; p.q.len()];
+    p.w.mul_vec(1.0, r, 0.0, &mut image);
+    let u: Vec<f64> = image.iter().zip(&p.q).map(|(wr, q)| wr + q).collect();
+    certifies_infeasibility(r, &image, p.w.norm_fro(), &u, &p.q, &p.mu)
 }
 
 /// True when `r` certifies that the problem has no solution: `image` is `H r` (global

@@ -9,6 +9,7 @@
 //! problem, in one array; the Newton solver, its problem and the measure's vectors live in
 //! a [`SmallWork`] that every island of one size shares (one per thread).
 
+use crate::certificate::local_run_off;
 use crate::csc::CscMatrix;
 use crate::error::{Error, Status};
 use crate::islands::{contact_rows, Part};
@@ -460,7 +461,7 @@ impl SmallIsland {
         if self.global {
             data.velocities(&self.r, &mut self.v);
         }
-        let status = if out.converged() && run_off(local, &self.r) {
+        let status = if out.converged() && local_run_off(local, &self.r) {
             // Met only because the impulses ran off (docs/algorithms.md §13).
             Status::Infeasible
         } else if out.converged() {
@@ -539,13 +540,6 @@ impl SmallIsland {
     }
 }
 
-/// The certificate of [`crate::certificate`] on the island's Delassus form, at `r`.
-fn run_off(local: &LocalProblem, r: &[f64]) -> bool {
-    let mut u = local.q.clone();
-    local.w.mul_vec(1.0, r, 1.0, &mut u);
-    crate::certificate::run_off(&local.w, r, &u, &local.q, &local.mu)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -575,9 +569,9 @@ mod tests {
         // A direction of the cone with h . y = 0 (y_N - 2.67 y_T1 - y_T2 = 0).
         let y = [0.68, -0.019, 0.68 + 2.6666666666666665 * 0.019];
         let r: Vec<f64> = y.iter().map(|x| 1e10 * x).collect();
-        assert!(run_off(&p, &r));
+        assert!(local_run_off(&p, &r));
         // The same size along the normal pushes the body: no certificate.
-        assert!(!run_off(&p, &[1e10, 0.0, 0.0]));
-        assert!(!run_off(&p, &[0.0; 3]));
+        assert!(!local_run_off(&p, &[1e10, 0.0, 0.0]));
+        assert!(!local_run_off(&p, &[0.0; 3]));
     }
 }

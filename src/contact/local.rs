@@ -5,7 +5,7 @@
 
 use super::{active_rows, count_rows, de_saxce_shift, initial_shift, rows_missing, ContactForm};
 use crate::admm::{EngineState, Splitting};
-use crate::certificate::run_off;
+use crate::certificate::local_run_off;
 use crate::cone::{de_saxce, get3, project_cone, set3};
 use crate::csc::{norm2, CscMatrix};
 use crate::error::Error;
@@ -311,8 +311,7 @@ impl ContactForm for LocalSplitting {
     }
 
     fn certifies_infeasibility(&self, state: &EngineState) -> bool {
-        let s = self.solution(state);
-        run_off(&self.p.w, &s.r, &s.u, &self.p.q, &self.p.mu)
+        local_run_off(&self.p, &state.y)
     }
 
     fn refactorizations(&self) -> usize {

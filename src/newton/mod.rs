@@ -128,8 +128,8 @@ pub(crate) fn iterate<S: NewtonSystem>(
     best.copy_from_slice(x);
     let mut best_err = err;
     let mut best_rel = rel;
-    // Iterations since the measure first met the tolerance (see `confirmed` below).
-    let mut met_for: Option<usize> = None;
+    // The iteration at which the measure first met the tolerance.
+    let mut met_at: Option<usize> = None;
     let mut reg = Regularization::new(s.alpha_cap());
     let mut window = MeritWindow::new(merit);
     let (mut iterations, mut last_improvement) = (0, 0);
@@ -140,8 +140,8 @@ pub(crate) fn iterate<S: NewtonSystem>(
             // are taken until the unit-free residual agrees, so that the same iterate is
             // handed back in any units (the measure alone would stop a step earlier or
             // later when the mass unit changes).
-            let extra = *met_for.get_or_insert(iterations);
-            if best_rel <= TUNING.alpha_per_residual * tol || iterations - extra >= TUNING.confirm {
+            let met = *met_at.get_or_insert(iterations);
+            if best_rel <= TUNING.alpha_per_residual * tol || iterations - met >= TUNING.confirm {
                 break NewtonStatus::Converged;
             }
         }

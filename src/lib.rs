@@ -39,7 +39,6 @@ mod islands;
 mod linsys;
 pub mod measure;
 /// Semismooth Newton (Alart-Curnier) phase.
-#[allow(dead_code)]
 mod newton;
 mod problem;
 mod settings;

@@ -169,8 +169,6 @@ pub struct Resolved {
     pub initial_rho: InitialRho,
     /// Concrete Anderson memory.
     pub anderson: usize,
-    /// Smallest factor by which rho may change (1: every change the rule proposes).
-    pub rho_change_factor: f64,
     /// The Newton phase.
     pub newton: NewtonUse,
 }
@@ -237,7 +235,6 @@ impl Settings {
             check_every: ERROR_CHECK_INTERVAL,
             trace: self.trace,
             rho_range: RHO_RANGE,
-            rho_change_factor: resolved.rho_change_factor,
             handover: (resolved.newton == NewtonUse::Polish).then_some(Handover {
                 error_below: HANDOVER_ERROR,
                 stall_checks: HANDOVER_STALL_CHECKS,
@@ -253,7 +250,6 @@ impl Settings {
                 variant: Variant::from_name(AUTO_VARIANT).expect("AUTO_VARIANT is a valid name"),
                 initial_rho: self.initial_rho.unwrap_or(AUTO_INITIAL_RHO),
                 anderson: self.anderson.unwrap_or(AUTO_ANDERSON),
-                rho_change_factor: 1.0,
                 newton: match (self.variant, self.newton_polish) {
                     (VariantChoice::Newton, _) => NewtonUse::Alone,
                     (_, Some(false)) => NewtonUse::Off,
@@ -264,7 +260,6 @@ impl Settings {
                 variant: v,
                 initial_rho: self.initial_rho.unwrap_or(InitialRho::Normal),
                 anderson: self.anderson.unwrap_or(0),
-                rho_change_factor: 1.0,
                 newton: if self.newton_polish == Some(true) {
                     NewtonUse::Polish
                 } else {

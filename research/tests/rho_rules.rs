@@ -36,7 +36,6 @@ fn solve_ridge(rule: RhoRule) -> (usize, f64) {
         check_every: 1,
         trace: false,
         rho_range: 1e8,
-        rho_change_factor: 1.0,
         handover: None,
     };
     let out = run(&mut p, &mut state, &set, Instant::now()).unwrap();

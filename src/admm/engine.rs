@@ -36,10 +36,6 @@ pub struct EngineSettings {
     pub trace: bool,
     /// Bounds on rho relative to its initial value.
     pub rho_range: f64,
-    /// A proposed rho is taken only when it differs from the current one by at least this
-    /// factor (1 = every change). Fewer changes mean fewer refactorizations and longer
-    /// Anderson histories, which are reset at each change.
-    pub rho_change_factor: f64,
     /// When to stop and hand the iterate over to a finishing phase (none: run to the end).
     pub handover: Option<Handover>,
 }
@@ -305,10 +301,7 @@ pub fn run(
             y_in: &y_in,
             c: sp.c(),
         };
-        let mut rho_next = rule.next_rho(&view).clamp(rho_min, rho_max);
-        if (rho_next / rho).max(rho / rho_next) < set.rho_change_factor {
-            rho_next = rho;
-        }
+        let rho_next = rule.next_rho(&view).clamp(rho_min, rho_max);
 
         // Next input: Anderson, Nesterov relaxation (with restart), or the plain output.
         if set.anderson > 0 {

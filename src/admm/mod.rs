@@ -41,10 +41,8 @@ pub trait Splitting {
     /// `||A^T d||` (dual residual and its scale).
     fn norm_at(&mut self, d: &[f64]) -> f64;
     /// Updates the problem parameter `s` from the current iterate (De Saxce shift for
-    /// contact problems). Returns the relative change of the shift (0 when there is none).
-    fn update_s(&mut self, _ax: &[f64], _y: &[f64]) -> f64 {
-        0.0
-    }
+    /// contact problems); nothing by default.
+    fn update_s(&mut self, _ax: &[f64], _y: &[f64]) {}
     /// The problem's own error measure at the current iterate (after `x_step`).
     fn error(&mut self, ax: &[f64], y: &[f64], zeta: &[f64], rho: f64) -> f64;
     /// Appends to `into` the splitting's own part of the current iterate, what `error` and

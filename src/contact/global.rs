@@ -270,14 +270,13 @@ impl Splitting for GlobalSplitting {
         norm2(&self.work_n)
     }
 
-    fn update_s(&mut self, ax: &[f64], _y: &[f64]) -> f64 {
+    fn update_s(&mut self, ax: &[f64], _y: &[f64]) {
         // u = H^T v + w
         for i in 0..ax.len() {
             self.work_m[i] = ax[i] + self.p.w[i];
         }
-        let change = de_saxce_shift(&self.work_m, &self.p.mu, &mut self.phi);
+        de_saxce_shift(&self.work_m, &self.p.mu, &mut self.phi);
         self.refresh_c();
-        change
     }
 
     fn save_iterate(&self, into: &mut Vec<f64>) {

@@ -180,16 +180,15 @@ impl Splitting for LocalSplitting {
         norm2(d)
     }
 
-    fn update_s(&mut self, ax: &[f64], _y: &[f64]) -> f64 {
+    fn update_s(&mut self, ax: &[f64], _y: &[f64]) {
         // u = W x + q at the impulse x of the linear solve, not at its projection z: the
         // shift then follows the same iterate the linear system produced, which converges
         // far better on singular Delassus matrices (BoxesStack, Capsules).
         let mut u = std::mem::take(&mut self.u);
         self.velocity(ax, &mut u);
-        let change = de_saxce_shift(&u, &self.p.mu, &mut self.phi);
+        de_saxce_shift(&u, &self.p.mu, &mut self.phi);
         self.u = u;
         self.refresh();
-        change
     }
 
     fn save_iterate(&self, into: &mut Vec<f64>) {

@@ -91,15 +91,10 @@ pub(crate) fn contact_form(problem: Problem) -> Result<Box<dyn ContactForm>, Err
 
 /// De Saxce shift of each contact's normal component: `mu ||u_T||`, written into `phi`
 /// (normal slots only). Returns the relative change of the shift.
-fn de_saxce_shift(u: &[f64], mu: &[f64], phi: &mut [f64]) -> f64 {
-    let (mut change, mut size) = (0.0f64, 0.0f64);
+fn de_saxce_shift(u: &[f64], mu: &[f64], phi: &mut [f64]) {
     for (i, &m) in mu.iter().enumerate() {
-        let s = de_saxce_term(get3(u, i), m);
-        change += (s - phi[3 * i]).powi(2);
-        size += s * s;
-        set3(phi, i, [s, 0.0, 0.0]);
+        set3(phi, i, [de_saxce_term(get3(u, i), m), 0.0, 0.0]);
     }
-    change.sqrt() / size.sqrt().max(f64::MIN_POSITIVE)
 }
 
 /// Which rows of the contact space take part in the linear systems, as factors 1 or 0.

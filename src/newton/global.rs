@@ -25,8 +25,8 @@
 
 use super::sparse::{Pattern, SparseLu};
 use super::{
-    ac_branch, check_rho, eval_all, impulse_scale, iterate, rho_from_block, Branch, Mat3,
-    NewtonOutcome, NewtonSystem, TUNING,
+    ac_branch, eval_all, impulse_scale, iterate, rho_from_block, Branch, Mat3, NewtonOutcome,
+    NewtonSystem, TUNING,
 };
 use crate::csc::CscMatrix;
 use crate::error::Error;
@@ -218,18 +218,6 @@ impl GlobalNewton {
                 *scale = if s > 0.0 && s.is_finite() { s } else { 1.0 };
             }
         }
-    }
-
-    /// Per-contact `rho` (`rho_N = rho_T`) used by the Alart-Curnier function.
-    pub fn rho(&self) -> &[f64] {
-        &self.rho
-    }
-
-    /// Replaces the per-contact `rho` (positive, one per contact).
-    pub fn set_rho(&mut self, rho: &[f64]) -> Result<(), Error> {
-        check_rho(rho, self.nc)?;
-        self.rho.copy_from_slice(rho);
-        Ok(())
     }
 
     fn check(

@@ -30,8 +30,7 @@
 
 use super::sparse::{Pattern, SparseLu};
 use super::{
-    check_rho, eval_all, impulse_scale, iterate, rho_from_block, Mat3, NewtonOutcome, NewtonSystem,
-    TUNING,
+    eval_all, impulse_scale, iterate, rho_from_block, Mat3, NewtonOutcome, NewtonSystem, TUNING,
 };
 use crate::csc::CscMatrix;
 use crate::error::Error;
@@ -137,12 +136,9 @@ impl LocalNewton {
         }
     }
 
-    /// Per-contact `rho` (`rho_N = rho_T`) used by the Alart-Curnier function.
-    pub fn rho(&self) -> &[f64] {
-        &self.rho
-    }
-
-    /// Replaces the per-contact `rho` (positive, one per contact).
+    /// Replaces the per-contact `rho` (positive, one per contact): the tests try other
+    /// choices than the Delassus blocks'.
+    #[cfg(test)]
     pub fn set_rho(&mut self, rho: &[f64]) -> Result<(), Error> {
         check_rho(rho, self.nc)?;
         self.rho.copy_from_slice(rho);
@@ -644,5 +640,25 @@ mod stack_tests {
                 assert!(cold_ok >= scenes.len() * 9 / 10);
             }
         }
+    }
+}
+
+/// Checks per-contact `rho` values (positive, finite, one per contact).
+#[cfg(test)]
+fn check_rho(rho: &[f64], nc: usize) -> Result<(), Error> {
+    if rho.len() != nc {
+        return Err(Error::Dimension {
+            field: "rho",
+            expected: nc,
+            found: rho.len(),
+        });
+    }
+    match rho.iter().position(|&x| !(x > 0.0 && x.is_finite())) {
+        Some(index) => Err(Error::InvalidValue {
+            field: "rho",
+            index,
+            reason: "must be positive and finite",
+        }),
+        None => Ok(()),
     }
 }

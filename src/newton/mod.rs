@@ -13,7 +13,6 @@ mod testing;
 
 pub use alart_curnier::{ac_branch, ac_contact, Branch, Mat3};
 
-use crate::error::Error;
 use std::time::Instant;
 // The solvers' entry points, for the solver driver that will call them.
 #[allow(unused_imports)]
@@ -228,25 +227,6 @@ pub(crate) fn impulse_scale(r: &[f64], rho: &[f64], u_free: &[f64]) -> f64 {
         .map(|(k, u)| (rho[k / 3] * u).powi(2))
         .sum();
     crate::csc::dot(r, r).max(free).sqrt()
-}
-
-/// Checks per-contact `rho` values (positive, finite, one per contact).
-pub(crate) fn check_rho(rho: &[f64], nc: usize) -> Result<(), Error> {
-    if rho.len() != nc {
-        return Err(Error::Dimension {
-            field: "rho",
-            expected: nc,
-            found: rho.len(),
-        });
-    }
-    match rho.iter().position(|&x| !(x > 0.0 && x.is_finite())) {
-        Some(index) => Err(Error::InvalidValue {
-            field: "rho",
-            index,
-            reason: "must be positive and finite",
-        }),
-        None => Ok(()),
-    }
 }
 
 /// Tuning shared by both solvers (see the module docs of [`local`] for the reasoning).

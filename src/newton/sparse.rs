@@ -121,11 +121,6 @@ impl SparseLu {
         })
     }
 
-    /// The pattern.
-    pub fn pattern(&self) -> &Pattern {
-        &self.pattern
-    }
-
     /// Number of numeric factorizations done.
     pub fn factorizations(&self) -> usize {
         self.factorizations
@@ -215,8 +210,8 @@ mod tests {
         let mut lu = SparseLu::new("test", p).unwrap();
         let dense = [[2.0, 1.0, 0.0], [0.0, 3.0, 1.0], [1.0, 0.0, 4.0]];
         for c in 0..3 {
-            for k in lu.pattern().colptr[c]..lu.pattern().colptr[c + 1] {
-                let r = lu.pattern().rowind[k];
+            for k in lu.pattern.colptr[c]..lu.pattern.colptr[c + 1] {
+                let r = lu.pattern.rowind[k];
                 lu.values[k] = dense[r][c];
             }
         }

@@ -110,7 +110,6 @@ fn engine_settings(anderson: usize, tolerance: f64, max_iterations: usize) -> En
         check_every: 1,
         trace: true,
         rho_range: 1.0,
-        rho_change_factor: 1.0,
         handover: None,
     }
 }

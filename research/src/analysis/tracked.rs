@@ -61,7 +61,7 @@ impl Splitting for Tracked<'_> {
         self.inner.norm_at(d)
     }
 
-    fn update_s(&mut self, ax: &[f64], y: &[f64]) -> f64 {
+    fn update_s(&mut self, ax: &[f64], y: &[f64]) {
         self.inner.update_s(ax, y)
     }
 

@@ -284,7 +284,6 @@ pub fn solve(
         check_every: stop.max_iterations + 1,
         trace: false,
         rho_range: 1e8,
-        rho_change_factor: 1.0,
         handover: None,
     };
     let out = admm::run(&mut sp, &mut state, &set, Instant::now())?;

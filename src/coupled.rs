@@ -4,15 +4,15 @@
 
 use crate::admm::{self, EngineState};
 use crate::contact::{contact_form, initial_rho, ContactForm};
-use crate::error::{Error, Status};
 use crate::measure::Floors;
 use crate::newton::{FailReason, NewtonStatus};
 use crate::problem::{NewValues, Problem};
 use crate::settings::{
     NewtonUse, Resolved, Settings, NEWTON_FIRST_MAX_SIZE, NEWTON_FIRST_STEPS, NEWTON_MAX_STEPS,
 };
-use crate::solver::Solution;
-use crate::stats::{Phase, Stats, TracePoint};
+use crate::types::Solution;
+use crate::types::{Error, Status};
+use crate::types::{Phase, Stats, TracePoint};
 use std::time::{Duration, Instant};
 
 /// Solves one coupled frictional contact problem, and its successors with the same pattern.

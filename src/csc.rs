@@ -1,6 +1,6 @@
 //! Compressed sparse column matrices: validated storage and the products the solver needs.
 
-use crate::error::Error;
+use crate::types::Error;
 
 /// A sparse matrix in compressed-column form, 0-based, validated on construction.
 ///

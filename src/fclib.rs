@@ -7,9 +7,9 @@
 //! indices in `p`. Duplicate triplets are summed.
 
 use crate::csc::CscMatrix;
-use crate::error::Error;
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
-use crate::solver::Solution;
+use crate::types::Error;
+use crate::types::Solution;
 use hdf5::{Dataset, File, Group};
 use std::path::Path;
 

@@ -4,14 +4,14 @@
 //! densely on its own, so a scene with thousands of free bodies pays for them in
 //! proportion, not for a sparse analysis of all of them together.
 
-use crate::error::{Error, Status};
 use crate::islands::{DisjointSets, Part};
 use crate::linsys::dense::{cholesky, cholesky_solve, is_symmetric};
 use crate::linsys::DENSE_MAX;
 use crate::measure::{Floors, GlobalTerms, Scales};
 use crate::problem::GlobalProblem;
-use crate::solver::Solution;
-use crate::stats::Stats;
+use crate::types::Solution;
+use crate::types::Stats;
+use crate::types::{Error, Status};
 use std::time::Instant;
 
 /// One block of M: its velocities are `order[start..start + size]` (positions in the

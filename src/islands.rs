@@ -7,8 +7,8 @@
 //! zero couples), so a partition holds for every update on the same pattern.
 
 use crate::csc::CscMatrix;
-use crate::error::Error;
 use crate::problem::{GlobalProblem, LocalProblem, NewValues, Problem};
+use crate::types::Error;
 
 /// Disjoint sets over `0..n` (union by size, path halving).
 pub(crate) struct DisjointSets {

@@ -28,7 +28,6 @@ mod cone;
 mod contact;
 mod coupled;
 mod csc;
-mod error;
 #[cfg(feature = "fclib")]
 pub mod fclib;
 /// The C API (`include/cadmm.h`): opaque handles, result codes, panic boundary. From Rust,
@@ -44,14 +43,13 @@ mod problem;
 mod settings;
 mod small_island;
 mod solver;
-mod stats;
+mod types;
 
 pub use admm::SUpdate;
 pub use cone::{de_saxce, project_cone, project_dual_cone};
-pub use contact::InitialRho;
 pub use csc::CscMatrix;
-pub use error::{Error, Status};
 pub use problem::{GlobalProblem, Joints, LocalProblem, NewValues, Problem};
+pub use settings::InitialRho;
 pub use settings::{NewtonUse, Resolved, Settings, VariantChoice};
-pub use solver::{Solution, Solver};
-pub use stats::{Phase, Stats, TracePoint};
+pub use solver::Solver;
+pub use types::{Error, Phase, Solution, Stats, Status, TracePoint};

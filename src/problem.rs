@@ -4,7 +4,7 @@
 //! Local form: `u = W r + q`. Both with `K*_mu ∋ u + Phi(u) ⊥ r ∈ K_mu` per contact.
 
 use crate::csc::CscMatrix;
-use crate::error::Error;
+use crate::types::Error;
 
 /// Bilateral (joint) constraints `G^T v + b = 0` of a global problem.
 #[derive(Debug, Clone, PartialEq)]

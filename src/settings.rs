@@ -1,8 +1,7 @@
 //! Solver settings, validated when a solver is built.
 
 use crate::admm::{EngineSettings, Handover, SUpdate, Variant};
-use crate::contact::InitialRho;
-use crate::error::Error;
+use crate::types::Error;
 
 /// Which ADMM variant to run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -266,6 +265,55 @@ impl Settings {
                     NewtonUse::Off
                 },
             },
+        }
+    }
+}
+
+/// How the first rho is chosen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum InitialRho {
+    /// rho = 1 (eq. 37).
+    Normal,
+    /// `||M||_1 / ||H||_1` (eq. 36); `||W||_1` for the local form.
+    Acary,
+    /// Ghadimi's optimal rho from the Delassus spectrum (eq. 34).
+    Ghadimi,
+    /// Di Cairano's optimal rho from the spectrum of M (eq. 35).
+    DiCairano,
+    /// A given value.
+    Given(f64),
+}
+
+impl InitialRho {
+    /// Parses `normal`, `acary`, `ghadimi`, `dicairano` or `given` (with `value`).
+    pub fn from_name(name: &str, value: f64) -> Result<Self, Error> {
+        match name {
+            "normal" => Ok(InitialRho::Normal),
+            "acary" => Ok(InitialRho::Acary),
+            "ghadimi" => Ok(InitialRho::Ghadimi),
+            "dicairano" => Ok(InitialRho::DiCairano),
+            "given" if value.is_finite() && value > 0.0 => Ok(InitialRho::Given(value)),
+            "given" => Err(Error::InvalidSetting {
+                name: "initial_rho",
+                reason: format!("a given rho must be positive and finite, got {value}"),
+            }),
+            _ => Err(Error::InvalidSetting {
+                name: "initial_rho",
+                reason: format!(
+                    "unknown rule '{name}' (expected normal, acary, ghadimi, dicairano or given)"
+                ),
+            }),
+        }
+    }
+
+    /// The rule's name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            InitialRho::Normal => "normal",
+            InitialRho::Acary => "acary",
+            InitialRho::Ghadimi => "ghadimi",
+            InitialRho::DiCairano => "dicairano",
+            InitialRho::Given(_) => "given",
         }
     }
 }

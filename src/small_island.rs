@@ -11,15 +11,15 @@
 
 use crate::certificate::local_run_off;
 use crate::csc::CscMatrix;
-use crate::error::{Error, Status};
 use crate::islands::{contact_rows, Part};
 use crate::linsys::dense::{cholesky, cholesky_solve, is_symmetric};
 use crate::linsys::DENSE_MAX;
 use crate::measure::{local_error_with, Floors, GlobalTerms, MeasureWork, Scales};
 use crate::newton::LocalNewton;
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
-use crate::solver::Solution;
-use crate::stats::{Phase, Stats, TracePoint};
+use crate::types::Solution;
+use crate::types::{Error, Status};
+use crate::types::{Phase, Stats, TracePoint};
 use std::time::{Duration, Instant};
 
 /// An island of at most this many contact rows and velocities may be solved directly.

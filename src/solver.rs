@@ -5,7 +5,6 @@
 //! A problem that is one island is solved as it is, with no copy.
 
 use crate::coupled::CoupledSolver;
-use crate::error::{Error, Status};
 use crate::free_motion::FreeMotion;
 use crate::islands::{
     contact_rows, gather, partition_global, partition_local, positions, Part, Partition,
@@ -17,22 +16,10 @@ use crate::settings::{
     NewtonUse, Resolved, Settings, ISLAND_ROUNDS, NEWTON_FIRST_STEPS, ROUND_OFF_MARGIN,
 };
 use crate::small_island::{Site, SmallIsland, SmallWork};
-use crate::stats::{Stats, TracePoint};
+use crate::types::{Error, Solution, Status};
+use crate::types::{Stats, TracePoint};
 use std::sync::Mutex;
 use std::time::Instant;
-
-/// A solution of either form. `v` and `lambda` are empty for a local problem.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Solution {
-    /// Contact impulses (`3 nc`).
-    pub r: Vec<f64>,
-    /// Local relative velocities (`3 nc`).
-    pub u: Vec<f64>,
-    /// Generalized velocities (`n`, global form only).
-    pub v: Vec<f64>,
-    /// Joint multipliers (global form with joints only).
-    pub lambda: Vec<f64>,
-}
 
 /// Solves one frictional contact problem, and its successors with the same pattern.
 pub struct Solver {

@@ -4,8 +4,8 @@ use super::anderson::Anderson;
 use super::rho_rule::{IterationView, RhoAdapter};
 use super::{Relaxation, SUpdate, Splitting, Variant};
 use crate::csc::norm2;
-use crate::error::{Error, Status};
-use crate::stats::{Phase, TracePoint};
+use crate::types::{Error, Status};
+use crate::types::{Phase, TracePoint};
 use std::time::Instant;
 
 /// Settings the loop needs.

@@ -24,7 +24,7 @@ pub use engine::{run, EngineOutcome, EngineSettings, EngineState, Handover};
 pub use rho_rule::RhoRule;
 pub use variant::{Relaxation, Variant, VARIANT_NAMES};
 
-use crate::error::Error;
+use crate::types::Error;
 
 /// What a problem supplies to the engine.
 pub trait Splitting {

@@ -1,7 +1,7 @@
 //! The named ADMM variants (docs/algorithms.md §6.5): `cp|vp` x `N|R|RR` x `He|Wohlberg|Spectral`.
 
 use super::RhoRule;
-use crate::error::Error;
+use crate::types::Error;
 
 /// Over-relaxation of the iteration (docs/algorithms.md §6.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -12,13 +12,13 @@ use crate::admm::{EngineState, Splitting};
 use crate::certificate::run_off;
 use crate::cone::{get3, project_dual_cone, set3};
 use crate::csc::norm2;
-use crate::error::Error;
 use crate::linsys::param_matrix::{gram_triplets, triplets, Assembly};
 use crate::linsys::{Factor, FactorKind, ParamMatrix};
 use crate::measure::{global_error_with, Floors, MeasureWork};
 use crate::newton::{GlobalNewton, NewtonOutcome};
 use crate::problem::{check_same_sizes, GlobalProblem, Problem};
-use crate::solver::Solution;
+use crate::types::Error;
+use crate::types::Solution;
 use std::time::Instant;
 
 /// Regularization of the joint block of the quasi-definite system.

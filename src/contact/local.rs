@@ -8,13 +8,13 @@ use crate::admm::{EngineState, Splitting};
 use crate::certificate::local_run_off;
 use crate::cone::{de_saxce, get3, project_cone, set3};
 use crate::csc::{norm2, CscMatrix};
-use crate::error::Error;
 use crate::linsys::param_matrix::{triplets, Assembly};
 use crate::linsys::{Factor, FactorKind, ParamMatrix};
 use crate::measure::{local_error_with, Floors, MeasureWork};
 use crate::newton::{LocalNewton, NewtonOutcome};
 use crate::problem::{check_same_sizes, same_matrix_pattern, LocalProblem, NewValues, Problem};
-use crate::solver::Solution;
+use crate::types::Error;
+use crate::types::Solution;
 use std::time::Instant;
 
 /// The local contact problem as an ADMM splitting.

@@ -9,16 +9,15 @@ mod local;
 
 pub(crate) use global::GlobalSplitting;
 pub(crate) use initial_rho::initial_rho;
-pub use initial_rho::InitialRho;
 pub(crate) use local::LocalSplitting;
 
 use crate::admm::{EngineState, Splitting};
 use crate::cone::{de_saxce_term, get3, set3};
-use crate::error::Error;
 use crate::measure::Floors;
 use crate::newton::NewtonOutcome;
 use crate::problem::{NewValues, Problem};
-use crate::solver::Solution;
+use crate::types::Error;
+use crate::types::Solution;
 use std::time::Instant;
 
 /// A contact problem form as the solver drives it: the engine's [`Splitting`] plus what

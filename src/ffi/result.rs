@@ -1,6 +1,6 @@
 //! Result codes (why a call failed) and solve status codes (how a solve ended).
 
-use crate::error::{Error, Status};
+use crate::types::{Error, Status};
 use std::ffi::CStr;
 
 /// Outcome of a call: `CADMM_OK` (0) or one of the `CADMM_ERR_*` codes. A plain integer

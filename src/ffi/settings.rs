@@ -4,7 +4,7 @@ use super::arrays::{check_ptr, utf8};
 use super::panic::{guard, guard_value};
 use super::result::{cadmm_result, Failure, FfiResult, CADMM_ERR_INVALID_SETTING};
 use crate::admm::SUpdate;
-use crate::contact::InitialRho;
+use crate::settings::InitialRho;
 use crate::settings::{Settings, VariantChoice};
 use std::ffi::c_char;
 

@@ -11,7 +11,7 @@ use super::settings::{cadmm_settings, settings_ref};
 use super::stats::{cadmm_stats, cadmm_trace_point, write_stats, STATS_MIN_SIZE};
 use crate::problem::{NewValues, Problem};
 use crate::solver::Solver;
-use crate::stats::{Phase, TracePoint};
+use crate::types::{Phase, TracePoint};
 use std::cell::RefCell;
 use std::ffi::{c_char, CString};
 
@@ -448,7 +448,7 @@ pub unsafe extern "C" fn cadmm_solver_get_joint_multipliers(
 ///
 /// # Safety
 /// `out`, if non-NULL, must point to a writable `cadmm_stats` of `struct_size` bytes.
-unsafe fn put_stats(out: *mut cadmm_stats, stats: &crate::stats::Stats) -> FfiResult {
+unsafe fn put_stats(out: *mut cadmm_stats, stats: &crate::types::Stats) -> FfiResult {
     check_ptr("out", out.cast_const())?;
     // SAFETY: non-NULL and aligned; `struct_size` is the first field, present in every
     // version of the struct.

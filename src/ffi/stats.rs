@@ -1,7 +1,7 @@
 //! `cadmm_stats` and `cadmm_trace_point`: what a solve reports.
 
 use super::result::{cadmm_status, status_code};
-use crate::stats::{Stats, TracePoint};
+use crate::types::{Stats, TracePoint};
 use std::mem::{offset_of, size_of};
 
 /// Summary of the last solve, filled by `cadmm_solver_get_stats`.

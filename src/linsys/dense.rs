@@ -4,7 +4,7 @@
 
 use super::param_matrix::Assembly;
 use super::{FactorKind, ParamMatrix};
-use crate::error::Error;
+use crate::types::Error;
 
 /// Systems of at most this dimension are factorized densely.
 pub const DENSE_MAX: usize = 48;

@@ -14,7 +14,7 @@ pub use dense::DENSE_MAX;
 pub use param_matrix::ParamMatrix;
 pub use sparse_factor::{FactorKind, SparseFactor};
 
-use crate::error::Error;
+use crate::types::Error;
 use param_matrix::Assembly;
 
 /// The factorization of one system: dense up to [`DENSE_MAX`] unknowns, sparse above.

@@ -2,7 +2,7 @@
 
 use super::param_matrix::Assembly;
 use super::ParamMatrix;
-use crate::error::Error;
+use crate::types::Error;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::sparse::linalg::cholesky::{

@@ -29,9 +29,9 @@ use super::{
     NewtonSystem, TUNING,
 };
 use crate::csc::CscMatrix;
-use crate::error::Error;
 use crate::measure::{global_error_with, MeasureWork};
 use crate::problem::GlobalProblem;
+use crate::types::Error;
 use std::time::Instant;
 
 /// Newton solver of a global problem; built once per sparsity pattern of `(M, H, G)`.

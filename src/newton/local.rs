@@ -33,9 +33,9 @@ use super::{
     eval_all, impulse_scale, iterate, rho_from_block, Mat3, NewtonOutcome, NewtonSystem, TUNING,
 };
 use crate::csc::CscMatrix;
-use crate::error::Error;
 use crate::measure::{local_error_with, MeasureWork};
 use crate::problem::LocalProblem;
+use crate::types::Error;
 use std::time::Instant;
 
 /// Newton solver of a local problem; built once per sparsity pattern of `W`.

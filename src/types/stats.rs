@@ -1,6 +1,6 @@
 //! Summary statistics of a solve and the optional per-iteration trace.
 
-use crate::error::Status;
+use super::Status;
 
 /// Summary of the last solve.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,9 +1,9 @@
-//! Typed errors of the library and the outcome (status) of a solve.
+//! Typed errors of the library.
 
 use std::fmt;
 
 /// Why a call failed. Every variant names what was wrong; none of them is a solve outcome
-/// (see [`Status`] for that).
+/// (see [`super::Status`] for that).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Error {
     /// Two sizes that must agree do not (`field` is the offending argument).
@@ -87,42 +87,3 @@ impl fmt::Display for Error {
 }
 
 impl std::error::Error for Error {}
-
-/// Outcome of a solve that ran (a solve that could not run returns an [`Error`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(C)]
-pub enum Status {
-    /// The error measure reached the tolerance.
-    Solved = 0,
-    /// The iteration limit was reached first; the best iterate the last ADMM run measured
-    /// is kept.
-    MaxIterations = 1,
-    /// The time limit was reached first; as for `MaxIterations`, the best measured iterate
-    /// is kept.
-    TimeLimit = 2,
-    /// An iterate became non-finite; the last finite iterate is kept.
-    NumericalError = 3,
-    /// The method stopped making progress before the tolerance (only the `newton` variant,
-    /// which has no ADMM to fall back on); its best iterate is kept.
-    Stalled = 4,
-    /// The problem has no solution: some contact's normal relative velocity cannot change
-    /// (its normal column of H, or its normal row of W, is zero; or, with islands, all its
-    /// columns of H are empty) and it approaches (docs/algorithms.md §12), or the impulses
-    /// grew along a direction that pushes no body against approaching velocities, which
-    /// certifies it (§13). The solution returned is not one; its error is measured.
-    Infeasible = 5,
-}
-
-impl Status {
-    /// Lower-case name used by the command line tool and in JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            Status::Solved => "solved",
-            Status::MaxIterations => "max_iterations",
-            Status::TimeLimit => "time_limit",
-            Status::NumericalError => "numerical_error",
-            Status::Stalled => "stalled",
-            Status::Infeasible => "infeasible",
-        }
-    }
-}

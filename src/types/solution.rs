@@ -1,0 +1,14 @@
+//! The answer of a solve.
+
+/// A solution of either form. `v` and `lambda` are empty for a local problem.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Solution {
+    /// Contact impulses (`3 nc`).
+    pub r: Vec<f64>,
+    /// Local relative velocities (`3 nc`).
+    pub u: Vec<f64>,
+    /// Generalized velocities (`n`, global form only).
+    pub v: Vec<f64>,
+    /// Joint multipliers (global form with joints only).
+    pub lambda: Vec<f64>,
+}

@@ -453,6 +453,7 @@ fn short_status(s: Status) -> &'static str {
         Status::NumericalError => "nan",
         Status::Stalled => "stall",
         Status::Infeasible => "infeasible",
+        Status::Unsolved => "unsolved",
     }
 }
 

@@ -289,6 +289,17 @@ typedef struct cadmm_trace_point {
 #define CADMM_ERR_PANIC 10
 
 /**
+ * A new problem or new values do not have the sparsity pattern the solver was built for
+ * (same sizes, other non-zero positions): build a new solver instead.
+ */
+#define CADMM_ERR_PATTERN_CHANGED 11
+
+/**
+ * Memory for a system or its factorization could not be allocated.
+ */
+#define CADMM_ERR_OUT_OF_MEMORY 12
+
+/**
  * The error measure reached the tolerance.
  */
 #define CADMM_STATUS_SOLVED 0
@@ -323,6 +334,11 @@ typedef struct cadmm_trace_point {
  * velocities (docs/algorithms.md section 13). The solution returned is not one.
  */
 #define CADMM_STATUS_INFEASIBLE 5
+
+/**
+ * No solve has run yet: the status of a new solver's statistics.
+ */
+#define CADMM_STATUS_UNSOLVED 6
 
 #ifdef __cplusplus
 extern "C" {
@@ -610,13 +626,25 @@ cadmm_result cadmm_solver_update_local_values(struct cadmm_solver *sv,
  * The next solve starts cold unless `cadmm_solver_warm_start` is called after this.
  *
  * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION` (other sizes),
- * `CADMM_ERR_INVALID_CSC` (other pattern), `CADMM_ERR_UNSUPPORTED` (a problem of the
+ * `CADMM_ERR_PATTERN_CHANGED` (other pattern), `CADMM_ERR_INVALID_VALUE` (a value out of
+ * range), `CADMM_ERR_UNSUPPORTED` (a problem of the
  * other form, global or local), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a failure the solver
  * refuses `cadmm_solver_warm_start` and `cadmm_solver_solve` (with the same code) until an
  * update succeeds; the solution and statistics of the last solve stay readable.
  */
 cadmm_result cadmm_solver_update(struct cadmm_solver *sv,
                                  const struct cadmm_problem *p);
+
+/**
+ * Changes the settings of the next solves: the tolerance, the iteration and time limits,
+ * the trace and the threads of `s` are taken (`s` is copied). Every other setting of `s`
+ * must equal the solver's: changing the variant, the initial rho, the s update, Anderson,
+ * the Newton phase or islands needs a new solver.
+ *
+ * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (an invalid value, or a
+ * setting that needs a new solver; the message names it). On failure nothing changes.
+ */
+cadmm_result cadmm_solver_update_settings(struct cadmm_solver *sv, const struct cadmm_settings *s);
 
 /**
  * Starts the next solve from impulses `r` (`3 n_contacts` entries) and, for a global

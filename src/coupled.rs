@@ -39,7 +39,7 @@ impl CoupledSolver {
         let rho0 = initial_rho(resolved.initial_rho, &problem)?;
         let l = 3 * problem.n_contacts();
         let joints = match &problem {
-            Problem::Global(g) => g.joints.as_ref().map_or(0, |j| j.b.len()),
+            Problem::Global(g) => g.n_joints(),
             Problem::Local(_) => 0,
         };
         let newton_first = resolved.newton == NewtonUse::Polish
@@ -79,6 +79,17 @@ impl CoupledSolver {
         self.settings.tolerance = tolerance;
         self.settings.time_limit = time_limit;
         self.settings.max_iterations = max_iterations;
+    }
+
+    /// Takes the settings a solve reads when it starts (see [`Settings::check_update`]).
+    pub(crate) fn update_settings(&mut self, settings: &Settings) {
+        self.set_limits(
+            settings.tolerance,
+            settings.time_limit,
+            settings.max_iterations,
+        );
+        self.settings.trace = settings.trace;
+        self.settings.threads = settings.threads;
     }
 
     /// Floors of the error measure (an island's share of a scene's measure).

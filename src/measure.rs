@@ -96,7 +96,7 @@ impl MeasureWork {
 
     /// Resizes for `p` (no allocation when the sizes already fit).
     fn fit_global(&mut self, p: &GlobalProblem) {
-        let np = p.joints.as_ref().map_or(0, |j| j.b.len());
+        let np = p.n_joints();
         self.mv.resize(p.n(), 0.0);
         self.hr.resize(p.n(), 0.0);
         self.u.resize(p.w.len(), 0.0);

@@ -138,21 +138,34 @@ impl GlobalProblem {
         w: Vec<f64>,
         mu: Vec<f64>,
     ) -> Result<Self, Error> {
-        let n = m.nrows();
-        check_shape("M", &m, n, n)?;
-        let nc = mu.len();
-        check_shape("H", &h, n, 3 * nc)?;
-        check_len("f", &f, n)?;
-        check_len("w", &w, 3 * nc)?;
-        check_mu(&mu, nc)?;
-        Ok(Self {
+        let p = Self {
             m,
             h,
             f,
             w,
             mu,
             joints: None,
-        })
+        };
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// Checks the sizes and values the constructors check. The fields are public, so a
+    /// solver checks them again: a field changed after construction gets an error, not a
+    /// wrong answer.
+    pub fn validate(&self) -> Result<(), Error> {
+        let n = self.m.nrows();
+        check_shape("M", &self.m, n, n)?;
+        let nc = self.mu.len();
+        check_shape("H", &self.h, n, 3 * nc)?;
+        check_len("f", &self.f, n)?;
+        check_len("w", &self.w, 3 * nc)?;
+        check_mu(&self.mu, nc)?;
+        if let Some(j) = &self.joints {
+            check_shape("G", &j.g, n, j.g.ncols())?;
+            check_len("b", &j.b, j.g.ncols())?;
+        }
+        Ok(())
     }
 
     /// Adds bilateral constraints `G^T v + b = 0` (`G` is `n x p`).
@@ -167,6 +180,16 @@ impl GlobalProblem {
         Ok(self)
     }
 
+    /// The joint Jacobian transpose `G`, if the problem has joints.
+    pub(crate) fn joint_matrix(&self) -> Option<&CscMatrix> {
+        self.joints.as_ref().map(|j| &j.g)
+    }
+
+    /// Number of joint multipliers (0 without joints).
+    pub fn n_joints(&self) -> usize {
+        self.joints.as_ref().map_or(0, |j| j.b.len())
+    }
+
     /// Number of velocity degrees of freedom.
     pub fn n(&self) -> usize {
         self.m.nrows()
@@ -179,13 +202,23 @@ impl GlobalProblem {
     /// True when a solver built for this problem can take the values of `other`
     /// ([`crate::Solver::update_values`]): same sizes and sparsity patterns of M, H and G.
     pub fn same_pattern(&self, other: &GlobalProblem) -> bool {
-        same_matrix_pattern(&self.m, &other.m)
-            && same_matrix_pattern(&self.h, &other.h)
-            && match (&self.joints, &other.joints) {
-                (None, None) => true,
-                (Some(x), Some(y)) => same_matrix_pattern(&x.g, &y.g),
-                _ => false,
-            }
+        self.check_successor(other).is_ok()
+    }
+
+    /// The check of an update: `next` has this problem's sizes and sparsity patterns.
+    pub(crate) fn check_successor(&self, next: &GlobalProblem) -> Result<(), Error> {
+        check_same_sizes([self.n(), self.n_contacts()], [next.n(), next.n_contacts()])?;
+        check_pattern("M", &self.m, &next.m)?;
+        check_pattern("H", &self.h, &next.h)?;
+        match (self.joint_matrix(), next.joint_matrix()) {
+            (None, None) => Ok(()),
+            (Some(a), Some(b)) => check_pattern("G", a, b),
+            (a, b) => Err(Error::Dimension {
+                field: "G",
+                expected: a.map_or(0, CscMatrix::ncols),
+                found: b.map_or(0, CscMatrix::ncols),
+            }),
+        }
     }
 }
 
@@ -281,20 +314,41 @@ impl LocalProblem {
 
     /// Validates and builds a local problem with `nc = mu.len()`.
     pub fn new(w: CscMatrix, q: Vec<f64>, mu: Vec<f64>) -> Result<Self, Error> {
-        let nc = mu.len();
-        check_shape("W", &w, 3 * nc, 3 * nc)?;
-        check_len("q", &q, 3 * nc)?;
-        check_mu(&mu, nc)?;
-        Ok(Self { w, q, mu })
+        let p = Self { w, q, mu };
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// Checks the sizes and values the constructor checks (see
+    /// [`GlobalProblem::validate`]).
+    pub fn validate(&self) -> Result<(), Error> {
+        let nc = self.mu.len();
+        check_shape("W", &self.w, 3 * nc, 3 * nc)?;
+        check_len("q", &self.q, 3 * nc)?;
+        check_mu(&self.mu, nc)
     }
 
     /// Number of contacts.
     pub fn n_contacts(&self) -> usize {
         self.mu.len()
     }
+
+    /// The check of an update: `next` has this problem's sizes and sparsity pattern.
+    pub(crate) fn check_successor(&self, next: &LocalProblem) -> Result<(), Error> {
+        check_same_sizes([0, self.n_contacts()], [0, next.n_contacts()])?;
+        check_pattern("W", &self.w, &next.w)
+    }
 }
 
 impl Problem {
+    /// Checks the sizes and values of either form (see [`GlobalProblem::validate`]).
+    pub fn validate(&self) -> Result<(), Error> {
+        match self {
+            Problem::Global(g) => g.validate(),
+            Problem::Local(l) => l.validate(),
+        }
+    }
+
     /// Number of contacts.
     pub fn n_contacts(&self) -> usize {
         match self {
@@ -399,19 +453,33 @@ impl Problem {
     /// True when the two problems have the same sizes and sparsity patterns, so a solver
     /// built for one can be updated to the other with a numeric refactorization only.
     pub fn same_pattern(&self, other: &Problem) -> bool {
-        match (self, other) {
-            (Problem::Global(a), Problem::Global(b)) => a.same_pattern(b),
-            (Problem::Local(a), Problem::Local(b)) => same_matrix_pattern(&a.w, &b.w),
-            _ => false,
+        self.check_successor(other).is_ok()
+    }
+
+    /// The one check of an update ([`crate::Solver::update`]): same form
+    /// (`Error::Unsupported`), sizes (`Error::Dimension`) and sparsity patterns
+    /// (`Error::PatternChanged`).
+    pub(crate) fn check_successor(&self, next: &Problem) -> Result<(), Error> {
+        match (self, next) {
+            (Problem::Global(a), Problem::Global(b)) => a.check_successor(b),
+            (Problem::Local(a), Problem::Local(b)) => a.check_successor(b),
+            (Problem::Global(_), Problem::Local(_)) => Err(Error::Unsupported(
+                "update: the new problem is local, the solver was built for a global one".into(),
+            )),
+            (Problem::Local(_), Problem::Global(_)) => Err(Error::Unsupported(
+                "update: the new problem is global, the solver was built for a local one".into(),
+            )),
         }
     }
 }
 
-pub(crate) fn same_matrix_pattern(a: &CscMatrix, b: &CscMatrix) -> bool {
-    a.nrows() == b.nrows()
-        && a.ncols() == b.ncols()
-        && a.colptr() == b.colptr()
-        && a.rowind() == b.rowind()
+/// Same shape and non-zero positions, as a [`Error::PatternChanged`] naming `field`.
+fn check_pattern(field: &'static str, a: &CscMatrix, b: &CscMatrix) -> Result<(), Error> {
+    check_shape(field, b, a.nrows(), a.ncols())?;
+    match a.colptr() == b.colptr() && a.rowind() == b.rowind() {
+        true => Ok(()),
+        false => Err(Error::PatternChanged { field }),
+    }
 }
 
 /// New values for the problem a solver holds: the next time step of a scene whose sizes

@@ -219,6 +219,35 @@ impl Settings {
         Ok(())
     }
 
+    /// Checks that `next` may replace these settings in a built solver: it is valid, and
+    /// changes only what a solve reads when it starts (tolerance, iteration and time
+    /// limits, trace, threads). The others chose the structure, the penalty or the Newton
+    /// path the solver was built with; changing them needs a new solver.
+    pub fn check_update(&self, next: &Settings) -> Result<(), Error> {
+        next.validate()?;
+        let fixed: [(&'static str, bool); 7] = [
+            ("variant", self.variant == next.variant),
+            ("initial_rho", self.initial_rho == next.initial_rho),
+            ("s_update", self.s_update == next.s_update),
+            ("anderson", self.anderson == next.anderson),
+            (
+                "anderson_interval",
+                self.anderson_interval == next.anderson_interval,
+            ),
+            ("newton_polish", self.newton_polish == next.newton_polish),
+            ("islands", self.islands == next.islands),
+        ];
+        match fixed.iter().find(|(_, same)| !same) {
+            Some(&(name, _)) => Err(Error::InvalidSetting {
+                name,
+                reason: "cannot change in a built solver (it chose the structure, the penalty \
+                         or the Newton path): build a new solver"
+                    .into(),
+            }),
+            None => Ok(()),
+        }
+    }
+
     /// What the engine loop runs with.
     pub(crate) fn engine_settings(&self, resolved: &Resolved) -> EngineSettings {
         EngineSettings {

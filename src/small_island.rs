@@ -363,6 +363,11 @@ impl SmallIsland {
     }
 
     /// Sets the tolerance, the time limit and the Newton steps of the next solves.
+    /// Records the Newton phase as a trace point, or not.
+    pub(crate) fn set_trace(&mut self, trace: bool) {
+        self.trace = trace;
+    }
+
     pub(crate) fn set_limits(&mut self, tolerance: f64, time_limit: f64, max_steps: usize) {
         self.tolerance = tolerance;
         self.time_limit = time_limit;

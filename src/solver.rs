@@ -11,7 +11,7 @@ use crate::islands::{
     ValueBuffers, EVERY_FIELD,
 };
 use crate::measure::{global_error_with, local_error_with, Floors, MeasureWork, Scales};
-use crate::problem::{check_same_sizes, NewValues, Problem};
+use crate::problem::{NewValues, Problem};
 use crate::settings::{
     NewtonUse, Resolved, Settings, ISLAND_ROUNDS, NEWTON_FIRST_STEPS, ROUND_OFF_MARGIN,
 };
@@ -143,10 +143,7 @@ impl PartSolver {
             Problem::Global(g) => [
                 fraction(part.velocities.len(), g.n()),
                 fraction(part.contacts.len(), g.n_contacts()),
-                fraction(
-                    part.joints.len(),
-                    g.joints.as_ref().map_or(0, |j| j.b.len()),
-                ),
+                fraction(part.joints.len(), g.n_joints()),
             ],
             Problem::Local(l) => {
                 let c = fraction(part.contacts.len(), l.n_contacts());
@@ -344,6 +341,15 @@ fn add_solve(
     };
 }
 
+/// What the parts work to: the user's settings with the tolerance less
+/// [`ROUND_OFF_MARGIN`] (`Solver::settings` hands back the user's).
+fn working_settings(user: &Settings) -> Settings {
+    Settings {
+        tolerance: user.tolerance * (1.0 - ROUND_OFF_MARGIN),
+        ..user.clone()
+    }
+}
+
 impl Solver {
     /// Validates the settings, finds the contact islands (unless switched off), picks each
     /// island's first rho and factorizes (symbolic analysis and first numeric
@@ -351,12 +357,9 @@ impl Solver {
     pub fn new(problem: Problem, settings: Settings) -> Result<Self, Error> {
         let t0 = Instant::now();
         settings.validate()?;
+        problem.validate()?;
         let user = settings;
-        // What the parts work to; `settings()` hands back the user's.
-        let settings = Settings {
-            tolerance: user.tolerance * (1.0 - ROUND_OFF_MARGIN),
-            ..user.clone()
-        };
+        let settings = working_settings(&user);
         let partition = match (&problem, settings.islands) {
             (_, false) => None,
             (Problem::Global(g), true) => Some(partition_global(g)),
@@ -383,7 +386,7 @@ impl Solver {
             island_stats: Vec::new(),
         };
         solver.stats.islands = n_islands;
-        solver.collect_stats(Status::MaxIterations, f64::INFINITY, 0.0);
+        solver.collect_stats(Status::Unsolved, f64::INFINITY, 0.0);
         solver.stats.setup_seconds = t0.elapsed().as_secs_f64();
         Ok(solver)
     }
@@ -391,6 +394,29 @@ impl Solver {
     /// The settings.
     pub fn settings(&self) -> &Settings {
         &self.settings
+    }
+
+    /// Changes the settings between solves: the tolerance, the iteration and time limits,
+    /// the trace and the threads may change; any other change is refused with
+    /// [`Error::InvalidSetting`] naming it (it needs a new solver), and nothing changes.
+    pub fn update_settings(&mut self, settings: Settings) -> Result<(), Error> {
+        self.settings.check_update(&settings)?;
+        self.inner = working_settings(&settings);
+        self.settings = settings;
+        match &mut self.layout {
+            Layout::Whole(s) => s.update_settings(&self.inner),
+            Layout::Split(split) => {
+                for p in &mut split.parts {
+                    if let Some(s) = &mut p.small {
+                        s.set_trace(self.inner.trace);
+                    }
+                    if let Some(c) = &mut p.coupled {
+                        c.update_settings(&self.inner);
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The variant, initial rho rule and Anderson memory actually used.
@@ -402,6 +428,7 @@ impl Solver {
     /// time step of a simulation): numeric refactorization only, through the same path as
     /// [`Solver::update_values`].
     pub fn update(&mut self, problem: Problem) -> Result<(), Error> {
+        problem.validate()?;
         match &mut self.layout {
             Layout::Whole(s) => s.update(problem),
             Layout::Split(split) => split.update(problem),
@@ -594,29 +621,7 @@ impl Split {
     }
 
     fn update(&mut self, problem: Problem) -> Result<(), Error> {
-        // Sizes first, as a coupled solver checks them (after the form).
-        let same_form = matches!(
-            (&self.whole, &problem),
-            (Problem::Global(_), Problem::Global(_)) | (Problem::Local(_), Problem::Local(_))
-        );
-        if same_form {
-            let sizes = |p: &Problem| [p.n_velocities(), p.n_contacts()];
-            check_same_sizes(sizes(&self.whole), sizes(&problem))?;
-        }
-        if !self.whole.same_pattern(&problem) {
-            return Err(match (&self.whole, &problem) {
-                (Problem::Global(_), Problem::Local(_))
-                | (Problem::Local(_), Problem::Global(_)) => Error::Unsupported(
-                    "update: the new problem is of the other form than the solver's".into(),
-                ),
-                _ => Error::InvalidCsc {
-                    field: "M, H, G or W",
-                    reason: "the sizes or the sparsity pattern differ from the ones the solver \
-                             was built for"
-                        .into(),
-                },
-            });
-        }
+        self.whole.check_successor(&problem)?;
         self.whole = problem;
         self.assembled = None;
         self.distribute(&EVERY_FIELD)
@@ -821,7 +826,7 @@ impl Split {
     fn assemble(&self) -> Solution {
         let (n, m) = (self.whole.n_velocities(), 3 * self.whole.n_contacts());
         let np = match &self.whole {
-            Problem::Global(g) => g.joints.as_ref().map_or(0, |j| j.b.len()),
+            Problem::Global(g) => g.n_joints(),
             Problem::Local(_) => 0,
         };
         let mut out = Solution {

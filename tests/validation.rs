@@ -431,3 +431,100 @@ fn a_non_finite_iterate_stops_with_a_status_and_keeps_finite_values() {
     );
     assert!(stats.error > 1e-8, "{stats:?}");
 }
+
+/// The problems' fields are public: a problem changed after its constructor checked it is
+/// checked again by the solver, and gets the constructor's error, not a panic or a status.
+#[test]
+fn a_problem_changed_after_construction_is_refused_by_the_solver() {
+    let valid = || {
+        let h = CscMatrix::identity(6);
+        GlobalProblem::new(
+            CscMatrix::identity(6),
+            h,
+            vec![-1.0; 6],
+            vec![0.0; 6],
+            vec![0.5; 2],
+        )
+        .unwrap()
+    };
+    let mut p = valid();
+    p.mu = vec![0.5, 0.5, 0.5];
+    let e = Solver::new(Problem::Global(p), Settings::default()).err();
+    assert!(matches!(e, Some(Error::Dimension { .. })), "{e:?}");
+
+    let mut p = valid();
+    p.f[3] = f64::NAN;
+    let e = Solver::new(Problem::Global(p), Settings::default()).err();
+    assert_eq!(
+        e,
+        Some(Error::InvalidValue {
+            field: "f",
+            index: 3,
+            reason: "not finite"
+        })
+    );
+
+    let mut p = valid();
+    p.mu[1] = -0.1;
+    let e = Solver::new(Problem::Global(p), Settings::default()).err();
+    assert!(
+        matches!(
+            e,
+            Some(Error::InvalidValue {
+                field: "mu",
+                index: 1,
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+
+    let mut l = LocalProblem::new(CscMatrix::identity(3), vec![-1.0, 0.0, 0.0], vec![0.3]).unwrap();
+    l.q.push(0.0);
+    let e = Solver::new(Problem::Local(l), Settings::default()).err();
+    assert!(
+        matches!(e, Some(Error::Dimension { field: "q", .. })),
+        "{e:?}"
+    );
+
+    // The same checks guard an update.
+    let mut solver = Solver::new(Problem::Global(valid()), Settings::default()).unwrap();
+    let mut p = valid();
+    p.w[0] = f64::INFINITY;
+    let e = solver.update(Problem::Global(p)).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::InvalidValue {
+                field: "w",
+                index: 0,
+                ..
+            }
+        ),
+        "{e}"
+    );
+}
+
+/// An update with the solver's sizes but other non-zero positions names the matrix.
+#[test]
+fn an_update_with_another_pattern_names_the_matrix() {
+    let m = CscMatrix::identity(3);
+    let h = CscMatrix::identity(3);
+    let p = GlobalProblem::new(m.clone(), h, vec![-1.0, 0.0, 0.0], vec![0.0; 3], vec![0.5]);
+    let mut solver = Solver::new(Problem::Global(p.unwrap()), Settings::default()).unwrap();
+    let h2 = CscMatrix::new("H", 3, 3, vec![0, 2, 3, 3], vec![0, 1, 1], vec![1.0; 3]).unwrap();
+    let p2 = GlobalProblem::new(m, h2, vec![-1.0, 0.0, 0.0], vec![0.0; 3], vec![0.5]).unwrap();
+    let e = solver.update(Problem::Global(p2)).unwrap_err();
+    assert_eq!(e, Error::PatternChanged { field: "H" });
+    assert!(e.to_string().contains("sparsity pattern of H"), "{e}");
+}
+
+/// Before its first solve, a solver's statistics say so.
+#[test]
+fn a_new_solver_is_unsolved() {
+    let p = LocalProblem::new(CscMatrix::identity(3), vec![-1.0, 0.0, 0.0], vec![0.3]).unwrap();
+    let mut solver = Solver::new(Problem::Local(p), Settings::default()).unwrap();
+    assert_eq!(solver.stats().status, cadmm::Status::Unsolved);
+    assert_eq!(solver.solve().unwrap(), cadmm::Status::Solved);
+    assert_eq!(solver.stats().status, cadmm::Status::Solved);
+}

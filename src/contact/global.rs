@@ -16,7 +16,7 @@ use crate::linsys::param_matrix::{gram_triplets, triplets, Assembly};
 use crate::linsys::{Factor, FactorKind, ParamMatrix};
 use crate::measure::{global_error_with, Floors, MeasureWork};
 use crate::newton::{GlobalNewton, NewtonOutcome};
-use crate::problem::{check_same_sizes, GlobalProblem, Problem};
+use crate::problem::{GlobalProblem, Problem};
 use crate::types::Error;
 use crate::types::Solution;
 use std::time::Instant;
@@ -186,7 +186,7 @@ fn base_triplets(p: &GlobalProblem) -> impl Iterator<Item = (usize, usize, f64)>
 /// round-off), LU on the full pattern otherwise (some FEM files carry a non-symmetric M).
 fn system_matrix(p: &GlobalProblem, active: &[f64]) -> (ParamMatrix, Assembly, FactorKind) {
     let n = p.n();
-    let np = p.joints.as_ref().map_or(0, |j| j.g.ncols());
+    let np = p.n_joints();
     let symmetric = p.m.is_symmetric();
     let (matrix, assembly) = ParamMatrix::from_triplets(
         n + np,
@@ -314,13 +314,7 @@ impl ContactForm for GlobalSplitting {
                 "update: the new problem is local, the solver was built for a global one".into(),
             ));
         };
-        check_same_sizes([self.p.n(), self.p.n_contacts()], [p.n(), p.n_contacts()])?;
-        if !self.p.same_pattern(&p) {
-            return Err(Error::InvalidCsc {
-                field: "M, H or G",
-                reason: "the sparsity pattern differs from the one the solver was built for".into(),
-            });
-        }
+        self.p.check_successor(&p)?;
         self.p = p;
         self.take_values()
     }

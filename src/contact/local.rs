@@ -12,7 +12,7 @@ use crate::linsys::param_matrix::{triplets, Assembly};
 use crate::linsys::{Factor, FactorKind, ParamMatrix};
 use crate::measure::{local_error_with, Floors, MeasureWork};
 use crate::newton::{LocalNewton, NewtonOutcome};
-use crate::problem::{check_same_sizes, same_matrix_pattern, LocalProblem, NewValues, Problem};
+use crate::problem::{LocalProblem, NewValues, Problem};
 use crate::types::Error;
 use crate::types::Solution;
 use std::time::Instant;
@@ -212,13 +212,7 @@ impl ContactForm for LocalSplitting {
                 "update: the new problem is global, the solver was built for a local one".into(),
             ));
         };
-        check_same_sizes([0, self.p.n_contacts()], [0, p.n_contacts()])?;
-        if !same_matrix_pattern(&p.w, &self.p.w) {
-            return Err(Error::InvalidCsc {
-                field: "W",
-                reason: "the sparsity pattern differs from the one the solver was built for".into(),
-            });
-        }
+        self.p.check_successor(&p)?;
         self.p = p;
         self.take_values()
     }

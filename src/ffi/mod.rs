@@ -27,6 +27,8 @@
 // on each function (pointer validity and array lengths); repeating a `# Safety` section on
 // each would only pad the generated header.
 #![allow(clippy::missing_safety_doc)]
+// Every unsafe operation inside an unsafe function names its own `unsafe` block and SAFETY.
+#![deny(unsafe_op_in_unsafe_fn)]
 
 mod arrays;
 pub mod csc;

@@ -31,6 +31,11 @@ pub const CADMM_ERR_UNSUPPORTED: cadmm_result = 9;
 /// An internal error (a Rust panic) was caught at the API boundary. A solver that
 /// reported it is unusable afterwards and must be freed.
 pub const CADMM_ERR_PANIC: cadmm_result = 10;
+/// A new problem or new values do not have the sparsity pattern the solver was built for
+/// (same sizes, other non-zero positions): build a new solver instead.
+pub const CADMM_ERR_PATTERN_CHANGED: cadmm_result = 11;
+/// Memory for a system or its factorization could not be allocated.
+pub const CADMM_ERR_OUT_OF_MEMORY: cadmm_result = 12;
 
 /// How a solve that ran ended, written by `cadmm_solver_solve`. A plain integer like
 /// `cadmm_result`.
@@ -54,6 +59,8 @@ pub const CADMM_STATUS_STALLED: cadmm_status = 4;
 /// or the impulses grew along a direction that pushes no body against approaching
 /// velocities (docs/algorithms.md section 13). The solution returned is not one.
 pub const CADMM_STATUS_INFEASIBLE: cadmm_status = 5;
+/// No solve has run yet: the status of a new solver's statistics.
+pub const CADMM_STATUS_UNSOLVED: cadmm_status = 6;
 
 /// The C status code of a [`Status`].
 pub(crate) fn status_code(s: Status) -> cadmm_status {
@@ -64,6 +71,7 @@ pub(crate) fn status_code(s: Status) -> cadmm_status {
         Status::NumericalError => CADMM_STATUS_NUMERICAL_ERROR,
         Status::Stalled => CADMM_STATUS_STALLED,
         Status::Infeasible => CADMM_STATUS_INFEASIBLE,
+        Status::Unsolved => CADMM_STATUS_UNSOLVED,
     }
 }
 
@@ -78,6 +86,8 @@ pub(crate) fn error_code(e: &Error) -> cadmm_result {
         Error::InvalidSetting { .. } => CADMM_ERR_INVALID_SETTING,
         Error::Io(_) => CADMM_ERR_IO,
         Error::Unsupported(_) => CADMM_ERR_UNSUPPORTED,
+        Error::PatternChanged { .. } => CADMM_ERR_PATTERN_CHANGED,
+        Error::OutOfMemory { .. } => CADMM_ERR_OUT_OF_MEMORY,
     }
 }
 
@@ -126,6 +136,8 @@ pub(crate) fn message(code: cadmm_result) -> &'static CStr {
         CADMM_ERR_IO => c"i/o error",
         CADMM_ERR_UNSUPPORTED => c"unsupported operation",
         CADMM_ERR_PANIC => c"internal error (panic caught at the API boundary)",
+        CADMM_ERR_PATTERN_CHANGED => c"sparsity pattern differs from the solver's",
+        CADMM_ERR_OUT_OF_MEMORY => c"out of memory",
         _ => c"unknown result code",
     }
 }

@@ -298,7 +298,8 @@ pub unsafe extern "C" fn cadmm_solver_update_local_values(
 /// The next solve starts cold unless `cadmm_solver_warm_start` is called after this.
 ///
 /// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION` (other sizes),
-/// `CADMM_ERR_INVALID_CSC` (other pattern), `CADMM_ERR_UNSUPPORTED` (a problem of the
+/// `CADMM_ERR_PATTERN_CHANGED` (other pattern), `CADMM_ERR_INVALID_VALUE` (a value out of
+/// range), `CADMM_ERR_UNSUPPORTED` (a problem of the
 /// other form, global or local), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a failure the solver
 /// refuses `cadmm_solver_warm_start` and `cadmm_solver_solve` (with the same code) until an
 /// update succeeds; the solution and statistics of the last solve stay readable.
@@ -311,6 +312,29 @@ pub unsafe extern "C" fn cadmm_solver_update(
         // SAFETY: a live handle by contract.
         let problem = unsafe { problem_ref("p", p)? };
         update_with(sv, |s| s.update(problem.clone()))
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver_mut(sv, body) }
+}
+
+/// Changes the settings of the next solves: the tolerance, the iteration and time limits,
+/// the trace and the threads of `s` are taken (`s` is copied). Every other setting of `s`
+/// must equal the solver's: changing the variant, the initial rho, the s update, Anderson,
+/// the Newton phase or islands needs a new solver.
+///
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (an invalid value, or a
+/// setting that needs a new solver; the message names it). On failure nothing changes.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_update_settings(
+    sv: *mut cadmm_solver,
+    s: *const cadmm_settings,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_solver| -> FfiResult {
+        sv.check_usable(false)?;
+        // SAFETY: a live handle by contract.
+        let settings = unsafe { settings_ref("s", s)? };
+        sv.solver.update_settings(settings.clone())?;
+        Ok(())
     };
     // SAFETY: the caller's contract, forwarded.
     unsafe { with_solver_mut(sv, body) }
@@ -537,7 +561,7 @@ pub unsafe extern "C" fn cadmm_solver_get_trace(
         check_ptr("out", out.cast_const())?;
         let point = trace_point(sv, i)?;
         // SAFETY: checked non-NULL and aligned.
-        out.write(cadmm_trace_point::from(point));
+        unsafe { out.write(cadmm_trace_point::from(point)) };
         Ok(())
     };
     // SAFETY: the caller's contract, forwarded.
@@ -572,7 +596,7 @@ pub unsafe extern "C" fn cadmm_solver_get_trace_phase(
             Phase::Newton => 1,
         };
         // SAFETY: checked non-NULL and aligned.
-        phase.write(code);
+        unsafe { phase.write(code) };
         Ok(())
     };
     // SAFETY: the caller's contract, forwarded.

@@ -64,7 +64,9 @@ impl SparseFactor {
         let n = matrix.n;
         let pattern =
             SymbolicSparseColMatRef::new_checked(n, n, &matrix.colptr, None, &matrix.rowind);
-        let oom = |_| Error::Unsupported(format!("out of memory analysing {name}"));
+        let oom = |_| Error::OutOfMemory {
+            what: format!("the symbolic analysis of {name}"),
+        };
         let (symbolic, req) = match kind {
             FactorKind::Cholesky | FactorKind::QuasiDefinite { .. } => {
                 let s = factorize_symbolic_cholesky(

@@ -240,12 +240,7 @@ impl GlobalNewton {
                 None => self.p == 0,
             };
         if !same {
-            return Err(Error::InvalidCsc {
-                field: "M, H, G",
-                reason:
-                    "the sparsity patterns differ from the ones the Newton solver was built for"
-                        .into(),
-            });
+            return Err(Error::PatternChanged { field: "M, H or G" });
         }
         for (field, x, len) in [
             ("v", v, self.n),
@@ -520,7 +515,7 @@ mod tests {
     fn solve_from(p: &GlobalProblem, v: Vec<f64>, r: Vec<f64>, tol: f64) -> Run {
         let mut s = GlobalNewton::new(p).unwrap();
         let (mut v, mut r) = (v, r);
-        let mut lambda = vec![0.0; p.joints.as_ref().map_or(0, |j| j.b.len())];
+        let mut lambda = vec![0.0; p.n_joints()];
         let out = s
             .solve(p, &mut v, &mut r, &mut lambda, tol, 100, None)
             .unwrap();

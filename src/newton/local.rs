@@ -198,11 +198,7 @@ impl LocalNewton {
             || p.w.colptr() != self.w_colptr
             || p.w.rowind() != self.w_rowind
         {
-            return Err(Error::InvalidCsc {
-                field: "W",
-                reason: "the sparsity pattern differs from the one the Newton solver was built for"
-                    .into(),
-            });
+            return Err(Error::PatternChanged { field: "W" });
         }
         if r.len() != m {
             return Err(Error::Dimension {

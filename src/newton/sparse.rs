@@ -100,8 +100,10 @@ impl SparseLu {
         } else {
             let sym =
                 SymbolicSparseColMatRef::new_checked(n, n, &pattern.colptr, None, &pattern.rowind);
-            let symbolic = factorize_symbolic_lu(sym, Default::default())
-                .map_err(|_| Error::Unsupported(format!("out of memory analysing {name}")))?;
+            let symbolic =
+                factorize_symbolic_lu(sym, Default::default()).map_err(|_| Error::OutOfMemory {
+                    what: format!("the symbolic analysis of {name}"),
+                })?;
             let req = StackReq::any_of(&[
                 symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
                 symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),

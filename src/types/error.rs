@@ -48,6 +48,17 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
+    /// A new problem or new values for a solver do not have the sparsity pattern the
+    /// solver was built for (same sizes, other non-zero positions).
+    PatternChanged {
+        /// Matrix whose pattern differs (`M`, `H`, `G`, `W`).
+        field: &'static str,
+    },
+    /// Memory for a system or its factorization could not be allocated.
+    OutOfMemory {
+        /// What was being built.
+        what: String,
+    },
     /// The operation does not apply here (e.g. FCLib I/O without the `fclib` feature).
     Unsupported(String),
     /// Reading or writing a file failed.
@@ -80,6 +91,11 @@ impl fmt::Display for Error {
             Error::NotPositiveDefinite { field } => write!(f, "{field} is not positive definite"),
             Error::Singular { field } => write!(f, "{field} is singular"),
             Error::InvalidSetting { name, reason } => write!(f, "invalid setting {name}: {reason}"),
+            Error::PatternChanged { field } => write!(
+                f,
+                "the sparsity pattern of {field} differs from the one the solver was built for"
+            ),
+            Error::OutOfMemory { what } => write!(f, "out of memory: {what}"),
             Error::Unsupported(what) => write!(f, "unsupported: {what}"),
             Error::Io(what) => write!(f, "i/o error: {what}"),
         }

@@ -51,7 +51,7 @@ pub struct Stats {
 impl Default for Stats {
     fn default() -> Self {
         Self {
-            status: Status::MaxIterations,
+            status: Status::Unsolved,
             iterations: 0,
             error: f64::INFINITY,
             primal_residual: f64::INFINITY,

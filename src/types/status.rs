@@ -23,6 +23,8 @@ pub enum Status {
     /// grew along a direction that pushes no body against approaching velocities, which
     /// certifies it (§13). The solution returned is not one; its error is measured.
     Infeasible = 5,
+    /// No solve has run yet (the statistics of a new solver).
+    Unsolved = 6,
 }
 
 impl Status {
@@ -35,6 +37,7 @@ impl Status {
             Status::NumericalError => "numerical_error",
             Status::Stalled => "stalled",
             Status::Infeasible => "infeasible",
+            Status::Unsolved => "unsolved",
         }
     }
 }

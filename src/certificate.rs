@@ -16,10 +16,7 @@ use crate::cone::{de_saxce_term, get3};
 use crate::csc::{norm2, CscMatrix};
 use crate::problem::LocalProblem;
 
-/// `||H r|| <= NULL_SPACE ||H||_F ||r||`: the impulses push (almost) nothing.
-const NULL_SPACE: f64 = 1e-6;
-/// `-r . u~ >= DEFECT ||r|| max(||u~||, ||u_free||)`: they meet approaching velocities.
-const DEFECT: f64 = 0.1;
+use crate::tuning::{DEFECT, NULL_SPACE};
 
 /// [`certifies_infeasibility`] on the global form, with the image `H r` computed here.
 pub(crate) fn run_off(op: &CscMatrix, r: &[f64], u: &[f64], u_free: &[f64], mu: &[f64]) -> bool {

@@ -7,9 +7,8 @@ use crate::contact::{contact_form, initial_rho, ContactForm};
 use crate::measure::Floors;
 use crate::newton::{FailReason, NewtonStatus};
 use crate::problem::{NewValues, Problem};
-use crate::settings::{
-    NewtonUse, Resolved, Settings, NEWTON_FIRST_MAX_SIZE, NEWTON_FIRST_STEPS, NEWTON_MAX_STEPS,
-};
+use crate::settings::{NewtonUse, Resolved, Settings};
+use crate::tuning::{DENSE_MAX, HANDOVER_RETRY_FACTOR, NEWTON_FIRST_STEPS, NEWTON_MAX_STEPS};
 use crate::types::Solution;
 use crate::types::{Error, Status};
 use crate::types::{Phase, Stats, TracePoint};
@@ -44,7 +43,7 @@ impl CoupledSolver {
         };
         let newton_first = resolved.newton == NewtonUse::Polish
             && l > 0
-            && problem.n_velocities() + l + joints <= NEWTON_FIRST_MAX_SIZE;
+            && problem.n_velocities() + l + joints <= DENSE_MAX;
         let mut form = contact_form(problem)?;
         form.set_rho(rho0)?;
         let state = EngineState {
@@ -291,7 +290,7 @@ impl CoupledSolver {
                     // The first phase of a small problem: ADMM runs with the usual handover.
                     newton_first = false;
                 } else if let Some(h) = set.handover.as_mut() {
-                    h.error_below = 1e-2 * h.error_below.min(error);
+                    h.error_below = HANDOVER_RETRY_FACTOR * h.error_below.min(error);
                     h.stall_checks *= 2;
                 }
             }

@@ -43,6 +43,7 @@ mod problem;
 mod settings;
 mod small_island;
 mod solver;
+mod tuning;
 mod types;
 
 pub use admm::SUpdate;

@@ -1,6 +1,10 @@
 //! Solver settings, validated when a solver is built.
 
 use crate::admm::{EngineSettings, Handover, SUpdate, Variant};
+use crate::tuning::{
+    ERROR_CHECK_INTERVAL, FINISH_WITHIN, HANDOVER_ERROR, HANDOVER_STALL_CHECKS, RESIDUAL_EPS_ABS,
+    RESIDUAL_EPS_ABS_FROM, RHO_RANGE,
+};
 use crate::types::Error;
 
 /// Which ADMM variant to run.
@@ -100,63 +104,13 @@ pub const AUTO_ANDERSON: usize = 5;
 /// Initial rho rule `auto` uses.
 pub const AUTO_INITIAL_RHO: InitialRho = InitialRho::Acary;
 
-/// The error measure is evaluated every this many iterations (and whenever the cheap
-/// residual test passes): it costs a few matrix-vector products, an iteration about one solve.
-pub const ERROR_CHECK_INTERVAL: usize = 5;
-
-/// ADMM hands over to the Newton phase once the error measure is at or below this: by then
-/// it has identified which contacts are open, sticking or sliding, where Newton converges
-/// in a few steps.
-pub const HANDOVER_ERROR: f64 = 1e-6;
-
-/// ... or when the error has not halved over this many evaluations (ERROR_CHECK_INTERVAL
-/// iterations each): ADMM has stalled, and Newton may still finish from there.
-pub const HANDOVER_STALL_CHECKS: usize = 20;
-
-/// No handover while ADMM, at the rate of its last error evaluations, would reach the
-/// tolerance within this many iterations: on easy files a Newton phase (a factorization
-/// and a few steps) costs more than that. (FCLib set at 1e-8, `auto` against ADMM alone:
-/// median time ratio 1.28 with no such rule, 1.06 with 200 iterations.)
-pub const FINISH_WITHIN: usize = 200;
-
-/// Newton steps allowed per Newton phase with ADMM to fall back on. Newton itself stops a
-/// phase that has not improved for 60 steps; on the Box_Stacks files it needs 80 to 110
-/// steps from ADMM's handover, so caps of 50 or 100 failed phases that were about to
-/// converge (FCLib set at 1e-8: 8.2 s in all with 50, 6.7 s with 200, 5.2 s with 400).
-pub const NEWTON_MAX_STEPS: usize = 400;
-
 /// Most island threads one solve may start.
 pub const MAX_THREADS: usize = 256;
-
-/// The solver works to `tolerance * (1 - ROUND_OFF_MARGIN)`: the measure of a solution
-/// computed elsewhere (another summation order, another program) differs by round-off, and
-/// a solution reported solved must meet the tolerance there too. At mass ratio 1e4 the local
-/// measure of one solution read 9.99964e-9 in cadmm and 1.0000037e-8 recomputed, a
-/// relative difference of 4e-5.
-pub const ROUND_OFF_MARGIN: f64 = 1e-3;
-
-/// Rounds in which islands are solved again to a tighter tolerance when their assembled
-/// solution misses the whole problem's tolerance (docs/algorithms.md §12).
-pub const ISLAND_ROUNDS: usize = 4;
-
-/// A problem whose Newton system has at most this many unknowns (velocities, contact rows
-/// and joints; the local form: contact rows) starts with a Newton phase of at most
-/// [`NEWTON_FIRST_STEPS`] steps, ADMM taking over only if it fails: its dense Newton step
-/// costs about as much as a few ADMM iterations, and Newton needs 4 to 10 of them where
-/// ADMM needs about 100 (the small Rover files: 3 to 4x less time, median of 2000 solves).
-pub const NEWTON_FIRST_MAX_SIZE: usize = crate::linsys::DENSE_MAX;
-
-/// Steps of the first Newton phase of a small problem.
-pub const NEWTON_FIRST_STEPS: usize = 50;
-
-/// rho stays within `[rho0 / RHO_RANGE, rho0 * RHO_RANGE]`: beyond that the factorization of
-/// `M + rho H H^T` (or `W + rho I`) loses the other term to round-off.
-pub const RHO_RANGE: f64 = 1e8;
 
 /// Absolute tolerance of the residual test at error tolerance `tol`: 1e-6 at `tol = 1e-3`,
 /// scaled with `tol` below that (the relative part is `tol` itself).
 fn residual_eps_abs(tol: f64) -> f64 {
-    1e-6 * tol.min(1e-3) / 1e-3
+    RESIDUAL_EPS_ABS * tol.min(RESIDUAL_EPS_ABS_FROM) / RESIDUAL_EPS_ABS_FROM
 }
 
 /// Settings with every default resolved.

@@ -22,9 +22,6 @@ use crate::types::{Error, Status};
 use crate::types::{Phase, Stats, TracePoint};
 use std::time::{Duration, Instant};
 
-/// An island of at most this many contact rows and velocities may be solved directly.
-const SMALL_ISLAND_MAX: usize = DENSE_MAX;
-
 /// Where each piece of an island's data sits in its one array (`n` velocities, `m = 3 nc`
 /// contact rows; a local island has `n = 0`).
 #[derive(Debug, Clone, Copy)]
@@ -244,7 +241,7 @@ impl SmallIsland {
         let (whole, part) = (at.whole, at.part);
         let (nc, n) = (part.contacts.len(), part.velocities.len());
         let frictional = part.contacts.iter().any(|&c| whole.mu()[c] > 0.0);
-        let small = 3 * nc <= SMALL_ISLAND_MAX && n <= SMALL_ISLAND_MAX;
+        let small = 3 * nc <= DENSE_MAX && n <= DENSE_MAX;
         if !small || !frictional || !part.joints.is_empty() {
             return Ok(None);
         }

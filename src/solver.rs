@@ -12,10 +12,9 @@ use crate::islands::{
 };
 use crate::measure::{global_error_with, local_error_with, Floors, MeasureWork, Scales};
 use crate::problem::{NewValues, Problem};
-use crate::settings::{
-    NewtonUse, Resolved, Settings, ISLAND_ROUNDS, NEWTON_FIRST_STEPS, ROUND_OFF_MARGIN,
-};
+use crate::settings::{NewtonUse, Resolved, Settings};
 use crate::small_island::{Site, SmallIsland, SmallWork};
+use crate::tuning::{ISLAND_ROUNDS, ISLAND_TIGHTENING, NEWTON_FIRST_STEPS, ROUND_OFF_MARGIN};
 use crate::types::{Error, Solution, Status};
 use crate::types::{Stats, TracePoint};
 use std::sync::Mutex;
@@ -731,7 +730,7 @@ impl Split {
                 break;
             }
             let scales = self.measure.scales;
-            let factor = (tol / error).min(0.5);
+            let factor = (tol / error).min(ISLAND_TIGHTENING);
             for (p, again) in self.parts.iter_mut().zip(&mut pending) {
                 // The contact-free part is solved exactly already.
                 *again = !p.part.contacts.is_empty();

@@ -21,8 +21,7 @@ use crate::types::Error;
 use crate::types::Solution;
 use std::time::Instant;
 
-/// Regularization of the joint block of the quasi-definite system.
-const JOINT_DELTA: f64 = 1e-9;
+use crate::tuning::JOINT_DELTA;
 
 /// The global contact problem as an ADMM splitting.
 pub struct GlobalSplitting {

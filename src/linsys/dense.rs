@@ -6,8 +6,7 @@ use super::param_matrix::Assembly;
 use super::{FactorKind, ParamMatrix};
 use crate::types::Error;
 
-/// Systems of at most this dimension are factorized densely.
-pub const DENSE_MAX: usize = 48;
+pub use crate::tuning::DENSE_MAX;
 
 /// `A(rho)` factorized densely in place: `L L^T` (lower triangle of `factor`) for the
 /// positive definite kind, `P A = L U` with partial pivoting for the others (a quasi-definite

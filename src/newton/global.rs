@@ -26,11 +26,12 @@
 use super::sparse::{Pattern, SparseLu};
 use super::{
     ac_branch, eval_all, impulse_scale, iterate, rho_from_block, Branch, Mat3, NewtonOutcome,
-    NewtonSystem, TUNING,
+    NewtonSystem,
 };
 use crate::csc::CscMatrix;
 use crate::measure::{global_error_with, MeasureWork};
 use crate::problem::GlobalProblem;
+use crate::tuning::NEWTON;
 use crate::types::Error;
 use std::time::Instant;
 
@@ -408,7 +409,7 @@ impl NewtonSystem for GlobalNewton {
     fn line_search(&mut self, prob: &GlobalProblem, z: &[f64], merit: f64) -> Option<f64> {
         let (n, p) = (self.n, self.p);
         let mut t = 1.0;
-        while t >= TUNING.min_step {
+        while t >= NEWTON.min_step {
             for k in 0..z.len() {
                 self.z_trial[k] = z[k] + t * self.d[k];
             }
@@ -434,7 +435,7 @@ impl NewtonSystem for GlobalNewton {
                     &mut self.a_trial,
                     &mut self.b_trial,
                 );
-            let decrease = 1.0 - TUNING.sigma * t;
+            let decrease = 1.0 - NEWTON.sigma * t;
             if trial <= decrease * decrease * merit {
                 return Some(t);
             }

@@ -29,12 +29,11 @@
 //! tests fail from a cold start; with this choice they all converge, as at unit scale).
 
 use super::sparse::{Pattern, SparseLu};
-use super::{
-    eval_all, impulse_scale, iterate, rho_from_block, Mat3, NewtonOutcome, NewtonSystem, TUNING,
-};
+use super::{eval_all, impulse_scale, iterate, rho_from_block, Mat3, NewtonOutcome, NewtonSystem};
 use crate::csc::CscMatrix;
 use crate::measure::{local_error_with, MeasureWork};
 use crate::problem::LocalProblem;
+use crate::tuning::{NEWTON, SMALL_ALPHA_CAP};
 use crate::types::Error;
 use std::time::Instant;
 
@@ -249,12 +248,6 @@ impl NewtonSystem for Measured<'_> {
     }
 }
 
-/// Cap of the regularization when Newton alone solves a small island from a cold start
-/// ([`LocalNewton::solve_measured`]): the islands are well scaled and mostly regular, so a
-/// nearly exact first step identifies the contact states; a singular system still gets its
-/// regularization strengthened tenfold per failed step.
-pub(crate) const SMALL_ALPHA_CAP: f64 = 1e-6;
-
 impl NewtonSystem for LocalNewton {
     type Problem = LocalProblem;
 
@@ -328,7 +321,7 @@ impl NewtonSystem for LocalNewton {
     /// length is returned.
     fn line_search(&mut self, p: &LocalProblem, r: &[f64], merit: f64) -> Option<f64> {
         let mut t = 1.0;
-        while t >= TUNING.min_step {
+        while t >= NEWTON.min_step {
             for k in 0..r.len() {
                 self.r_trial[k] = r[k] + t * self.d[k];
                 self.u_trial[k] = self.u[k] + t * self.wd[k];
@@ -342,7 +335,7 @@ impl NewtonSystem for LocalNewton {
                 &mut self.a_trial,
                 &mut self.b_trial,
             );
-            let decrease = 1.0 - TUNING.sigma * t;
+            let decrease = 1.0 - NEWTON.sigma * t;
             if trial <= decrease * decrease * merit {
                 return Some(t);
             }

@@ -13,6 +13,7 @@ mod testing;
 
 pub use alart_curnier::{ac_branch, ac_contact, Branch, Mat3};
 
+use crate::tuning::NEWTON;
 use std::time::Instant;
 // The solvers' entry points, for the solver driver that will call them.
 #[allow(unused_imports)]
@@ -95,10 +96,10 @@ pub(crate) trait NewtonSystem {
     /// velocity: it makes the residual `||R||` relative and unit-free (every part of `R` is
     /// an impulse).
     fn impulse_scale(&self, p: &Self::Problem, x: &[f64]) -> f64;
-    /// Cap of the residual-driven part of the regularization ([`Tuning::alpha_cap`] unless a
+    /// Cap of the residual-driven part of the regularization ([`NewtonTuning::alpha_cap`] unless a
     /// system knows better).
     fn alpha_cap(&self) -> f64 {
-        TUNING.alpha_cap
+        NEWTON.alpha_cap
     }
 }
 
@@ -121,7 +122,7 @@ pub(crate) fn iterate<S: NewtonSystem>(
     // measure: the measure adds velocities to impulses, so it changes with the units, and
     // the iterates would too.
     let relative = |merit: f64, scale: f64| {
-        TUNING.alpha_per_residual * (2.0 * merit).sqrt() / scale.max(f64::MIN_POSITIVE)
+        NEWTON.alpha_per_residual * (2.0 * merit).sqrt() / scale.max(f64::MIN_POSITIVE)
     };
     let mut rel = relative(merit, s.impulse_scale(p, x));
     best.copy_from_slice(x);
@@ -135,12 +136,12 @@ pub(crate) fn iterate<S: NewtonSystem>(
     let status = loop {
         if best_err <= tol {
             // The measure adds velocities to impulses, so whether an iterate meets it
-            // depends on the units; the iterates do not. Up to `TUNING.confirm` more steps
+            // depends on the units; the iterates do not. Up to `NEWTON.confirm` more steps
             // are taken until the unit-free residual agrees, so that the same iterate is
             // handed back in any units (the measure alone would stop a step earlier or
             // later when the mass unit changes).
             let met = *met_at.get_or_insert(iterations);
-            if best_rel <= TUNING.alpha_per_residual * tol || iterations - met >= TUNING.confirm {
+            if best_rel <= NEWTON.alpha_per_residual * tol || iterations - met >= NEWTON.confirm {
                 break NewtonStatus::Converged;
             }
         }
@@ -153,7 +154,7 @@ pub(crate) fn iterate<S: NewtonSystem>(
         if deadline.is_some_and(|d| Instant::now() >= d) {
             break NewtonStatus::Failed(FailReason::Deadline);
         }
-        if iterations - last_improvement >= TUNING.stall {
+        if iterations - last_improvement >= NEWTON.stall {
             break NewtonStatus::Failed(FailReason::NoProgress);
         }
         // One step: retry with a stronger regularization until the line search passes.
@@ -229,47 +230,7 @@ pub(crate) fn impulse_scale(r: &[f64], rho: &[f64], u_free: &[f64]) -> f64 {
     crate::csc::dot(r, r).max(free).sqrt()
 }
 
-/// Tuning shared by both solvers (see the module docs of [`local`] for the reasoning).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Tuning {
-    /// Armijo constant of the residual-norm decrease test.
-    pub sigma: f64,
-    /// Smallest line-search step before the step is retried with more regularization.
-    pub min_step: f64,
-    /// Smallest relative proximal regularization (keeps the matrix invertible).
-    pub alpha_min: f64,
-    /// Largest relative proximal regularization (beyond it the step is declared failed).
-    pub alpha_max: f64,
-    /// Cap of the residual-driven part of the regularization.
-    pub alpha_cap: f64,
-    /// Regularization per unit of relative residual `||R|| / impulse scale`.
-    pub alpha_per_residual: f64,
-    /// Iterations without improvement of the best error before giving up.
-    pub stall: usize,
-    /// Number of past merits the non-monotone line search compares with.
-    pub window: usize,
-    /// Steps taken at most after the error measure meets the tolerance, for the unit-free
-    /// residual to meet it too.
-    pub confirm: usize,
-}
-
-/// The values used (chosen on the random box stacks of the tests).
-pub(crate) const TUNING: Tuning = Tuning {
-    sigma: 1e-4,
-    min_step: 1.0 / 1024.0,
-    alpha_min: 1e-14,
-    alpha_max: 1e8,
-    alpha_cap: 1e-2,
-    // The relative residual runs at 0.1 to 0.9 times the error measure on the FCLib files
-    // (median about 0.2 on Box_Stacks): 3 keeps the regularization near the level it had
-    // when it followed the measure (the set's iterations and time unchanged overall).
-    alpha_per_residual: 3.0,
-    stall: 60,
-    window: 8,
-    confirm: 2,
-};
-
-/// The last [`Tuning::window`] merit values: the line search asks for a decrease relative
+/// The last [`NewtonTuning::window`] merit values: the line search asks for a decrease relative
 /// to their maximum (non-monotone, Grippo-Lampariello-Lucidi), which lets the iteration
 /// cross the kinks of `||F||` that stop a monotone search far from the solution.
 #[derive(Debug, Clone, Copy)]
@@ -292,7 +253,7 @@ impl MeritWindow {
     }
     /// Records the merit of an accepted point (dropping the oldest).
     pub fn push(&mut self, merit: f64) {
-        let cap = TUNING.window.clamp(1, 8);
+        let cap = NEWTON.window.clamp(1, 8);
         self.past[self.next] = merit;
         self.next = (self.next + 1) % cap;
         self.len = (self.len + 1).min(cap);
@@ -324,7 +285,7 @@ impl Regularization {
     /// residual) or an infinite impulse scale, a failing step still reaches `alpha_max` and
     /// gives up.
     pub fn alpha(&self, rel: f64) -> f64 {
-        let t = TUNING;
+        let t = NEWTON;
         let base = if rel.is_nan() {
             self.cap
         } else {
@@ -334,7 +295,7 @@ impl Regularization {
     }
     /// Strengthens after a failed step; false when it is already at its maximum.
     pub fn strengthen(&mut self, rel: f64) -> bool {
-        if self.alpha(rel) >= TUNING.alpha_max {
+        if self.alpha(rel) >= NEWTON.alpha_max {
             return false;
         }
         self.boost *= 10.0;
@@ -389,10 +350,10 @@ mod regularization_tests {
     #[test]
     fn strengthening_always_reaches_the_maximum() {
         for rel in [0.0, 1e-300, 1e-14, 1e-8, 1.0, f64::INFINITY, f64::NAN] {
-            let mut reg = Regularization::new(TUNING.alpha_cap);
+            let mut reg = Regularization::new(NEWTON.alpha_cap);
             let mut alpha = reg.alpha(rel);
             assert!(
-                (TUNING.alpha_min..=TUNING.alpha_cap).contains(&alpha),
+                (NEWTON.alpha_min..=NEWTON.alpha_cap).contains(&alpha),
                 "{rel}: {alpha}"
             );
             let mut tries = 0;
@@ -403,7 +364,7 @@ mod regularization_tests {
                 tries += 1;
                 assert!(tries < 40, "{rel}: still strengthening");
             }
-            assert_eq!(reg.alpha(rel), TUNING.alpha_max, "{rel}");
+            assert_eq!(reg.alpha(rel), NEWTON.alpha_max, "{rel}");
         }
     }
 }

@@ -1,0 +1,134 @@
+//! Every constant the solver was tuned with, in one place, each with the evidence for its
+//! value (FCLib figures are at tolerance 1e-8 unless said otherwise). Definitions that are
+//! not choices (the measure's floor `measure::TINY`, the C API's limits) stay where they are
+//! defined; the ADMM loop's own constants stay beside the loop in `admm`.
+
+/// Systems of at most this many unknowns are factorized densely: below a few dozen
+/// unknowns a dense Cholesky or LU costs less than a sparse one's analysis, bookkeeping and
+/// allocations (an island of a box on the ground has 6 velocities and 12 contact rows).
+///
+/// The same bound says when a problem starts with Newton: when the systems of its Newton
+/// step are dense. An island whose mass matrix and Delassus matrix both are
+/// (`n <= DENSE_MAX`, `3 nc <= DENSE_MAX`) is solved by Newton on its dense Delassus form,
+/// ADMM taking over only if that fails; a problem solved whole whose global Newton system is
+/// (velocities, contact rows and joints; the local form: contact rows) starts with a
+/// Newton phase of at most [`NEWTON_FIRST_STEPS`] steps. A dense Newton step costs about as
+/// much as a few ADMM iterations, and Newton needs 4 to 10 of them where ADMM needs about
+/// 100 (the small Rover files: 3 to 4x less time, median of 2000 solves).
+pub const DENSE_MAX: usize = 48;
+
+/// The error measure is evaluated every this many iterations (and whenever the cheap
+/// residual test passes): it costs a few matrix-vector products, an iteration about one solve.
+pub const ERROR_CHECK_INTERVAL: usize = 5;
+
+/// ADMM hands over to the Newton phase once the error measure is at or below this: by then
+/// it has identified which contacts are open, sticking or sliding, where Newton converges
+/// in a few steps.
+pub const HANDOVER_ERROR: f64 = 1e-6;
+
+/// ... or when the error has not halved over this many evaluations (ERROR_CHECK_INTERVAL
+/// iterations each): ADMM has stalled, and Newton may still finish from there.
+pub const HANDOVER_STALL_CHECKS: usize = 20;
+
+/// No handover while ADMM, at the rate of its last error evaluations, would reach the
+/// tolerance within this many iterations: on easy files a Newton phase (a factorization
+/// and a few steps) costs more than that. (FCLib set at 1e-8, `auto` against ADMM alone:
+/// median time ratio 1.28 with no such rule, 1.06 with 200 iterations.)
+pub const FINISH_WITHIN: usize = 200;
+
+/// Newton steps allowed per Newton phase with ADMM to fall back on. Newton itself stops a
+/// phase that has not improved for 60 steps; on the Box_Stacks files it needs 80 to 110
+/// steps from ADMM's handover, so caps of 50 or 100 failed phases that were about to
+/// converge (FCLib set at 1e-8: 8.2 s in all with 50, 6.7 s with 200, 5.2 s with 400).
+pub const NEWTON_MAX_STEPS: usize = 400;
+
+/// The solver works to `tolerance * (1 - ROUND_OFF_MARGIN)`: the measure of a solution
+/// computed elsewhere (another summation order, another program) differs by round-off, and
+/// a solution reported solved must meet the tolerance there too. At mass ratio 1e4 the local
+/// measure of one solution read 9.99964e-9 in cadmm and 1.0000037e-8 recomputed, a
+/// relative difference of 4e-5.
+pub const ROUND_OFF_MARGIN: f64 = 1e-3;
+
+/// Rounds in which islands are solved again to a tighter tolerance when their assembled
+/// solution misses the whole problem's tolerance (docs/algorithms.md §12).
+pub const ISLAND_ROUNDS: usize = 4;
+
+/// Steps of the first Newton phase of a small problem.
+pub const NEWTON_FIRST_STEPS: usize = 50;
+
+/// rho stays within `[rho0 / RHO_RANGE, rho0 * RHO_RANGE]`: beyond that the factorization of
+/// `M + rho H H^T` (or `W + rho I`) loses the other term to round-off.
+pub const RHO_RANGE: f64 = 1e8;
+
+/// Absolute tolerance of ADMM's residual test: this value at error tolerances of
+/// [`RESIDUAL_EPS_ABS_FROM`] and above, scaled with the tolerance below that (the relative
+/// part is the tolerance itself).
+pub const RESIDUAL_EPS_ABS: f64 = 1e-6;
+/// See [`RESIDUAL_EPS_ABS`].
+pub const RESIDUAL_EPS_ABS_FROM: f64 = 1e-3;
+
+/// When an island fails after a Newton phase and ADMM resumes, the next handover waits for
+/// an error this many times below where that phase failed (and for a stall twice as long):
+/// a Newton phase then costs a bounded share of the solve.
+pub const HANDOVER_RETRY_FACTOR: f64 = 1e-2;
+
+/// Islands solved again after the assembled solution missed the tolerance get at least
+/// this factor on their tolerance (more when the miss was larger).
+pub const ISLAND_TIGHTENING: f64 = 0.5;
+
+/// `||H r|| <= NULL_SPACE ||H||_F ||r||`: the impulses push (almost) nothing
+/// (infeasibility certificate, docs/algorithms.md §13).
+pub const NULL_SPACE: f64 = 1e-6;
+/// `-r . u~ >= DEFECT ||r|| max(||u~||, ||u_free||)`: they meet approaching velocities.
+pub const DEFECT: f64 = 0.1;
+
+/// Regularization of the joint block of the quasi-definite system `[[M + rho H H^T, G],
+/// [G^T, -JOINT_DELTA I]]`: small enough to leave the joint residual below the tolerances
+/// asked for, large enough for the LDL^T to stay quasi-definite.
+pub const JOINT_DELTA: f64 = 1e-9;
+
+/// Cap of the regularization when Newton alone solves a small island from a cold start
+/// (`LocalNewton::solve_measured`): the islands are well scaled and mostly regular, so a
+/// nearly exact first step identifies the contact states; a singular system still gets its
+/// regularization strengthened tenfold per failed step.
+pub(crate) const SMALL_ALPHA_CAP: f64 = 1e-6;
+
+/// Tuning shared by both solvers (see the module docs of `newton::local` for the reasoning).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct NewtonTuning {
+    /// Armijo constant of the residual-norm decrease test.
+    pub sigma: f64,
+    /// Smallest line-search step before the step is retried with more regularization.
+    pub min_step: f64,
+    /// Smallest relative proximal regularization (keeps the matrix invertible).
+    pub alpha_min: f64,
+    /// Largest relative proximal regularization (beyond it the step is declared failed).
+    pub alpha_max: f64,
+    /// Cap of the residual-driven part of the regularization.
+    pub alpha_cap: f64,
+    /// Regularization per unit of relative residual `||R|| / impulse scale`.
+    pub alpha_per_residual: f64,
+    /// Iterations without improvement of the best error before giving up.
+    pub stall: usize,
+    /// Number of past merits the non-monotone line search compares with.
+    pub window: usize,
+    /// Steps taken at most after the error measure meets the tolerance, for the unit-free
+    /// residual to meet it too.
+    pub confirm: usize,
+}
+
+/// The values used (chosen on the random box stacks of the tests).
+pub(crate) const NEWTON: NewtonTuning = NewtonTuning {
+    sigma: 1e-4,
+    min_step: 1.0 / 1024.0,
+    alpha_min: 1e-14,
+    alpha_max: 1e8,
+    alpha_cap: 1e-2,
+    // The relative residual runs at 0.1 to 0.9 times the error measure on the FCLib files
+    // (median about 0.2 on Box_Stacks): 3 keeps the regularization near the level it had
+    // when it followed the measure (the set's iterations and time unchanged overall).
+    alpha_per_residual: 3.0,
+    stall: 60,
+    window: 8,
+    confirm: 2,
+};

@@ -520,6 +520,7 @@ static inline const char *tu_status_name(int status)
     case 3: return "numerical_error";
     case 4: return "stalled";
     case 5: return "infeasible";
+    case 6: return "unsolved";
     default: return "(not a status)";
     }
 }

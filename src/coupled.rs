@@ -2,10 +2,9 @@
 //! are off): a problem's form, its settings and the last iterate. Everything that depends
 //! on the form lives in the form itself ([`crate::contact::ContactForm`]).
 
-use crate::admm::{self, EngineState};
+use crate::admm::{self, EngineSettings, EngineState};
 use crate::contact::{contact_form, initial_rho, ContactForm};
 use crate::measure::Floors;
-use crate::newton::{FailReason, NewtonStatus};
 use crate::problem::{NewValues, Problem};
 use crate::settings::{NewtonUse, Resolved, Settings};
 use crate::tuning::{DENSE_MAX, HANDOVER_RETRY_FACTOR, NEWTON_FIRST_STEPS, NEWTON_MAX_STEPS};
@@ -13,6 +12,30 @@ use crate::types::Solution;
 use crate::types::{Error, Status};
 use crate::types::{Phase, Stats, TracePoint};
 use std::time::{Duration, Instant};
+
+/// Whether a small problem's solves start with a Newton phase.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum NewtonFirst {
+    /// When its Newton system is dense (see [`DENSE_MAX`]) and the settings polish with
+    /// Newton.
+    IfSmall,
+    /// Never: Newton already failed on this problem from the same start (a small island's
+    /// dense Newton, which this solver backs up).
+    Never,
+}
+
+/// The state of one solve's alternating ADMM and Newton phases.
+struct Run {
+    /// The engine's settings; a failed Newton phase moves the next handover.
+    set: EngineSettings,
+    t0: Instant,
+    deadline: Option<Instant>,
+    stats: Stats,
+    /// The best error measured so far.
+    error: f64,
+    /// The next phase is the first Newton phase of a small problem.
+    newton_first: bool,
+}
 
 /// Solves one coupled frictional contact problem, and its successors with the same pattern.
 pub(crate) struct CoupledSolver {
@@ -31,7 +54,11 @@ pub(crate) struct CoupledSolver {
 impl CoupledSolver {
     /// Validates the settings, picks the first rho, and factorizes (symbolic analysis and
     /// the first numeric factorization).
-    pub(crate) fn new(problem: Problem, settings: Settings) -> Result<Self, Error> {
+    pub(crate) fn new(
+        problem: Problem,
+        settings: Settings,
+        first: NewtonFirst,
+    ) -> Result<Self, Error> {
         let t0 = Instant::now();
         settings.validate()?;
         let resolved = settings.resolved();
@@ -41,7 +68,8 @@ impl CoupledSolver {
             Problem::Global(g) => g.n_joints(),
             Problem::Local(_) => 0,
         };
-        let newton_first = resolved.newton == NewtonUse::Polish
+        let newton_first = first == NewtonFirst::IfSmall
+            && resolved.newton == NewtonUse::Polish
             && l > 0
             && problem.n_velocities() + l + joints <= DENSE_MAX;
         let mut form = contact_form(problem)?;
@@ -149,153 +177,177 @@ impl CoupledSolver {
     /// from zero.
     pub(crate) fn solve(&mut self) -> Result<Status, Error> {
         let t0 = Instant::now();
-        if self.form.blocked_contact().is_some() {
-            // No impulse can satisfy that contact: say so from the cold-start iterate,
-            // measured, rather than let the impulses grow until the relative measure fades.
-            self.state.rho = self.rho0;
-            self.form.cold_start(&mut self.state);
-            let error = self.iterate_error();
-            return Ok(self.end_without_iterating(Status::Infeasible, error, t0));
-        }
-        // Short cuts, each measured before it is taken: a warm start that already meets the
-        // tolerance (an engine's resting scene), and contacts that all separate.
-        if self.warm {
-            let error = self.iterate_error();
-            if error <= self.settings.tolerance {
-                return Ok(self.end_without_iterating(Status::Solved, error, t0));
-            }
-        }
-        if self.form.separating(&mut self.state) {
-            let error = self.iterate_error();
-            if error <= self.settings.tolerance {
-                return Ok(self.end_without_iterating(Status::Solved, error, t0));
-            }
-            // Round-off kept r = 0 above the tolerance (and the warm start is gone): solve
-            // from the start.
-            self.warm = false;
+        if let Some((status, error)) = self.short_cut() {
+            return Ok(self.end_without_iterating(status, error, t0));
         }
         if !self.warm {
             self.state.rho = self.rho0;
             self.form.cold_start(&mut self.state);
         }
         self.warm = false;
-        let mut set = self.settings.engine_settings(&self.resolved);
-        let deadline =
-            t0.checked_add(Duration::try_from_secs_f64(set.time_limit).unwrap_or(Duration::MAX));
-        let mut stats = Stats {
-            setup_seconds: self.stats.setup_seconds,
-            ..Default::default()
-        };
         self.trace.clear();
-        let mut status = None;
-        let mut error = f64::INFINITY;
+        let set = self.settings.engine_settings(&self.resolved);
+        let mut run = Run {
+            deadline: t0
+                .checked_add(Duration::try_from_secs_f64(set.time_limit).unwrap_or(Duration::MAX)),
+            set,
+            t0,
+            stats: Stats {
+                setup_seconds: self.stats.setup_seconds,
+                ..Default::default()
+            },
+            error: f64::INFINITY,
+            newton_first: self.newton_first,
+        };
         // ADMM and Newton phases alternate until one meets the tolerance or a limit is hit;
         // the iteration limit counts the steps of both. A small problem starts with Newton.
-        let mut newton_first = self.newton_first;
+        let mut status = None;
         while status.is_none() {
-            let left = self
-                .settings
-                .max_iterations
-                .saturating_sub(stats.iterations);
-            if self.resolved.newton != NewtonUse::Alone && !newton_first {
-                set.max_iterations = left;
-                let out = admm::run(self.form.as_mut(), &mut self.state, &set, t0)?;
-                stats.iterations += out.iterations;
-                stats.primal_residual = out.primal;
-                stats.dual_residual = out.dual;
-                stats.anderson_accepted += out.aa_accepted;
-                stats.anderson_rejected += out.aa_rejected;
-                let offset = stats.iterations - out.iterations;
-                self.trace.extend(out.trace.into_iter().map(|mut t| {
-                    t.iteration += offset;
-                    t
-                }));
-                error = out.error;
-                status = out.status;
-                if status == Some(Status::NumericalError) {
-                    // The form's own iterate comes from the step that blew up: recompute
-                    // it from the last finite iterate, which the state holds, and measure
-                    // that.
-                    self.form.recover(&self.state)?;
-                    let s = &self.state;
-                    error = self.form.error(&s.ax, &s.y, &s.zeta, s.rho);
-                }
-                if !out.handed_over {
+            if self.resolved.newton != NewtonUse::Alone && !run.newton_first {
+                let (ended, handed_over) = self.admm_phase(&mut run)?;
+                status = ended;
+                if !handed_over {
                     break;
                 }
             }
-            let left = self
-                .settings
-                .max_iterations
-                .saturating_sub(stats.iterations);
-            if left == 0 {
+            if self.iterations_left(&run.stats) == 0 {
                 status = Some(Status::MaxIterations);
                 break;
             }
-            // Newton alone may use every iteration left; as a polish, a bounded phase.
-            let steps = match self.resolved.newton {
-                NewtonUse::Alone => left,
-                _ if newton_first => left.min(NEWTON_FIRST_STEPS),
-                _ => left.min(NEWTON_MAX_STEPS),
-            };
-            let newton =
-                self.form
-                    .polish(&mut self.state, self.settings.tolerance, steps, deadline)?;
-            stats.iterations += newton.iterations;
-            stats.newton_iterations += newton.iterations;
-            stats.newton_factorizations += newton.factorizations;
-            stats.newton_phases += 1;
-            // Newton measured its own iterate; what the solver hands back is the engine
-            // state Newton wrote, recomputed from it: measure that (at huge impulses the two
-            // can differ beyond the tolerance).
-            let handed = if newton.converged() {
-                self.iterate_error()
-            } else {
-                newton.error
-            };
-            let converged = newton.converged() && handed <= self.settings.tolerance;
-            error = error.min(handed);
-            if self.settings.trace {
-                self.trace.push(TracePoint {
-                    iteration: stats.iterations,
-                    seconds: t0.elapsed().as_secs_f64(),
-                    error: handed,
-                    primal_residual: f64::NAN,
-                    dual_residual: f64::NAN,
-                    rho: self.state.rho,
-                    anderson_accepted: stats.anderson_accepted,
-                    anderson_rejected: stats.anderson_rejected,
-                    phase: Phase::Newton,
-                });
-            }
-            if converged {
-                status = Some(Status::Solved);
-            } else if newton.status == NewtonStatus::Failed(FailReason::Deadline)
-                || t0.elapsed().as_secs_f64() > self.settings.time_limit
-            {
-                status = Some(Status::TimeLimit);
-            } else if self.resolved.newton == NewtonUse::Alone {
-                // Newton alone has nothing to fall back on.
-                status = Some(match newton.status {
-                    NewtonStatus::Failed(FailReason::MaxIterations) => Status::MaxIterations,
-                    NewtonStatus::Failed(FailReason::NonFinite) => Status::NumericalError,
-                    _ => Status::Stalled,
-                });
-            } else {
-                // Back to ADMM from Newton's best iterate, handing over again only once the
-                // error is well below where this Newton phase failed, or after a stall twice
-                // as long: Newton then costs a bounded share of the solve.
-                stats.newton_fallbacks += 1;
-                if newton_first {
-                    // The first phase of a small problem: ADMM runs with the usual handover.
-                    newton_first = false;
-                } else if let Some(h) = set.handover.as_mut() {
-                    h.error_below = HANDOVER_RETRY_FACTOR * h.error_below.min(error);
-                    h.stall_checks *= 2;
-                }
+            status = self.newton_phase(&mut run)?;
+        }
+        Ok(self.finish(status.unwrap_or(Status::MaxIterations), run))
+    }
+
+    /// A solve that needs no iteration: no solution (a contact no impulse can satisfy), a
+    /// warm start that already meets the tolerance (an engine's resting scene), or
+    /// contacts that all separate; each measured before it is taken.
+    fn short_cut(&mut self) -> Option<(Status, f64)> {
+        if self.form.blocked_contact().is_some() {
+            // Say so from the cold-start iterate, measured, rather than let the impulses
+            // grow until the relative measure fades.
+            self.state.rho = self.rho0;
+            self.form.cold_start(&mut self.state);
+            return Some((Status::Infeasible, self.iterate_error()));
+        }
+        if self.warm {
+            let error = self.iterate_error();
+            if error <= self.settings.tolerance {
+                return Some((Status::Solved, error));
             }
         }
-        let mut status = status.unwrap_or(Status::MaxIterations);
+        if self.form.separating(&mut self.state) {
+            let error = self.iterate_error();
+            if error <= self.settings.tolerance {
+                return Some((Status::Solved, error));
+            }
+            // Round-off kept r = 0 above the tolerance (and the warm start is gone): solve
+            // from the start.
+            self.warm = false;
+        }
+        None
+    }
+
+    fn iterations_left(&self, stats: &Stats) -> usize {
+        self.settings
+            .max_iterations
+            .saturating_sub(stats.iterations)
+    }
+
+    /// One ADMM run: its status if it ended the solve, and whether it handed over to
+    /// Newton.
+    fn admm_phase(&mut self, run: &mut Run) -> Result<(Option<Status>, bool), Error> {
+        run.set.max_iterations = self.iterations_left(&run.stats);
+        let out = admm::run(self.form.as_mut(), &mut self.state, &run.set, run.t0)?;
+        let stats = &mut run.stats;
+        stats.iterations += out.iterations;
+        stats.primal_residual = out.primal;
+        stats.dual_residual = out.dual;
+        stats.anderson_accepted += out.aa_accepted;
+        stats.anderson_rejected += out.aa_rejected;
+        let offset = stats.iterations - out.iterations;
+        self.trace.extend(out.trace.into_iter().map(|mut t| {
+            t.iteration += offset;
+            t
+        }));
+        run.error = out.error;
+        if out.status == Some(Status::NumericalError) {
+            // The form's own iterate comes from the step that blew up: recompute it from
+            // the last finite iterate, which the state holds, and measure that.
+            self.form.recover(&self.state)?;
+            run.error = self.iterate_error();
+        }
+        Ok((out.status, out.handed_over))
+    }
+
+    /// One Newton phase from the engine state: the solve's status if it ended the solve,
+    /// `None` when ADMM resumes from Newton's best iterate.
+    fn newton_phase(&mut self, run: &mut Run) -> Result<Option<Status>, Error> {
+        let left = self.iterations_left(&run.stats);
+        // Newton alone may use every iteration left; as a polish, a bounded phase.
+        let steps = match self.resolved.newton {
+            NewtonUse::Alone => left,
+            _ if run.newton_first => left.min(NEWTON_FIRST_STEPS),
+            _ => left.min(NEWTON_MAX_STEPS),
+        };
+        let tolerance = self.settings.tolerance;
+        let newton = self
+            .form
+            .polish(&mut self.state, tolerance, steps, run.deadline)?;
+        run.stats.iterations += newton.iterations;
+        run.stats.newton_iterations += newton.iterations;
+        run.stats.newton_factorizations += newton.factorizations;
+        run.stats.newton_phases += 1;
+        // Newton measured its own iterate; what the solver hands back is the engine state
+        // Newton wrote, recomputed from it: measure that (at huge impulses the two can
+        // differ beyond the tolerance).
+        let handed = match newton.converged() {
+            true => self.iterate_error(),
+            false => newton.error,
+        };
+        run.error = run.error.min(handed);
+        self.trace_newton(run, handed);
+        let status =
+            newton.status_when_final(newton.converged() && handed <= tolerance, run.deadline);
+        let ends = matches!(status, Status::Solved | Status::TimeLimit);
+        if ends || self.resolved.newton == NewtonUse::Alone {
+            // Newton alone has nothing to fall back on.
+            return Ok(Some(status));
+        }
+        // Back to ADMM from Newton's best iterate, handing over again only once the error
+        // is well below where this Newton phase failed, or after a stall twice as long:
+        // Newton then costs a bounded share of the solve.
+        run.stats.newton_fallbacks += 1;
+        if run.newton_first {
+            // The first phase of a small problem: ADMM runs with the usual handover.
+            run.newton_first = false;
+        } else if let Some(h) = run.set.handover.as_mut() {
+            h.error_below = HANDOVER_RETRY_FACTOR * h.error_below.min(run.error);
+            h.stall_checks *= 2;
+        }
+        Ok(None)
+    }
+
+    /// Records the end of a Newton phase in the trace, when tracing.
+    fn trace_newton(&mut self, run: &Run, error: f64) {
+        if self.settings.trace {
+            self.trace.push(TracePoint {
+                iteration: run.stats.iterations,
+                seconds: run.t0.elapsed().as_secs_f64(),
+                error,
+                primal_residual: f64::NAN,
+                dual_residual: f64::NAN,
+                rho: self.state.rho,
+                anderson_accepted: run.stats.anderson_accepted,
+                anderson_rejected: run.stats.anderson_rejected,
+                phase: Phase::Newton,
+            });
+        }
+    }
+
+    /// The solve's statistics, and its status once the infeasibility certificate has
+    /// questioned a `Solved`.
+    fn finish(&mut self, mut status: Status, run: Run) -> Status {
         if status == Status::Solved && self.form.certifies_infeasibility(&self.state) {
             // The impulses ran off along a direction that shows there is no solution: the
             // relative error faded with them (docs/algorithms.md §13). Only a `Solved`
@@ -305,14 +357,14 @@ impl CoupledSolver {
         }
         self.stats = Stats {
             status,
-            error,
+            error: run.error,
             rho: self.state.rho,
             refactorizations: self.form.refactorizations(),
             rows: self.form.rows(),
-            solve_seconds: t0.elapsed().as_secs_f64(),
-            ..stats
+            solve_seconds: run.t0.elapsed().as_secs_f64(),
+            ..run.stats
         };
-        Ok(status)
+        status
     }
 
     /// The error measure of the iterate in the engine state.
@@ -344,7 +396,14 @@ impl CoupledSolver {
 
     /// The current solution (the last finite iterate).
     pub(crate) fn solution(&self) -> Solution {
-        self.form.solution(&self.state)
+        let mut out = Solution::default();
+        self.write_solution(&mut out);
+        out
+    }
+
+    /// Writes the current solution into `out`, reusing its vectors.
+    pub(crate) fn write_solution(&self, out: &mut Solution) {
+        self.form.write_solution(&self.state, out);
     }
 
     /// Length of `v` (0 for a local problem).

@@ -10,7 +10,7 @@
 //! let p = GlobalProblem::new(m, h, vec![-9.81, 0.0, 0.0], vec![0.0; 3], vec![0.5]).unwrap();
 //! let mut solver = Solver::new(Problem::Global(p), Settings::default()).unwrap();
 //! assert_eq!(solver.solve().unwrap(), Status::Solved);
-//! let r = solver.solution().r;
+//! let r = &solver.solution().r;
 //! assert!((r[0] - 9.81).abs() < 1e-6);
 //! ```
 #![deny(missing_docs)]
@@ -40,9 +40,11 @@ pub mod measure;
 /// Semismooth Newton (Alart-Curnier) phase.
 mod newton;
 mod problem;
+mod scene;
 mod settings;
 mod small_island;
 mod solver;
+mod strategy;
 mod tuning;
 mod types;
 

@@ -15,7 +15,7 @@ use crate::islands::{contact_rows, Part};
 use crate::linsys::dense::{cholesky, cholesky_solve, is_symmetric};
 use crate::linsys::DENSE_MAX;
 use crate::measure::{local_error_with, Floors, GlobalTerms, MeasureWork, Scales};
-use crate::newton::LocalNewton;
+use crate::newton::{LocalNewton, NewtonOutcome};
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
 use crate::types::Solution;
 use crate::types::{Error, Status};
@@ -182,6 +182,20 @@ pub(crate) struct SmallWork {
 }
 
 impl SmallWork {
+    /// Sizes the measure's vectors for an island of `n` velocities and `m` contact rows,
+    /// and gathers a global island's share of f.
+    fn size_for(&mut self, data: &Data, global: bool, n: usize, m: usize) {
+        for x in [&mut self.f, &mut self.mv, &mut self.hr, &mut self.v] {
+            x.resize(n, 0.0);
+        }
+        self.u.resize(m, 0.0);
+        if global {
+            for (fk, &i) in self.f.iter_mut().zip(&data.at.part.velocities) {
+                *fk = data.global().f[i];
+            }
+        }
+    }
+
     /// The solver for islands of `nc` contacts out of `sized`, built on first use (on a
     /// dense pattern, so that any island of that size fits it).
     fn sized(sized: &mut Vec<Option<Box<Sized>>>, nc: usize) -> Result<&mut Box<Sized>, Error> {
@@ -397,6 +411,7 @@ impl SmallIsland {
             t0.checked_add(Duration::try_from_secs_f64(self.time_limit).unwrap_or(Duration::MAX));
         let Layout { n, m } = self.layout;
         let data = Data::new(self.layout, &self.data, at);
+        work.size_for(&data, self.global, n, m);
         let SmallWork {
             sized,
             f,
@@ -406,15 +421,6 @@ impl SmallIsland {
             v,
             ..
         } = work;
-        for x in [&mut *f, &mut *mv, &mut *hr, &mut *v] {
-            x.resize(n, 0.0);
-        }
-        u.resize(m, 0.0);
-        if self.global {
-            for (fk, &i) in f.iter_mut().zip(&at.part.velocities) {
-                *fk = data.global().f[i];
-            }
-        }
         let f: &[f64] = f;
         let s = SmallWork::sized(sized, m / 3)?;
         s.local.w.set_values("W", data.w)?;
@@ -466,13 +472,14 @@ impl SmallIsland {
         let status = if out.converged() && local_run_off(local, &self.r) {
             // Met only because the impulses ran off (docs/algorithms.md §13).
             Status::Infeasible
-        } else if out.converged() {
-            Status::Solved
-        } else if deadline.is_some_and(|d| Instant::now() >= d) {
-            Status::TimeLimit
         } else {
-            Status::Stalled
+            out.status_when_final(out.converged(), deadline)
         };
+        Ok(self.record(&out, status, t0))
+    }
+
+    /// Records a solve's statistics and trace point.
+    fn record(&mut self, out: &NewtonOutcome, status: Status, t0: Instant) -> Status {
         let seconds = t0.elapsed().as_secs_f64();
         self.stats = Stats {
             status,
@@ -495,7 +502,7 @@ impl SmallIsland {
             anderson_rejected: 0,
             phase: Phase::Newton,
         });
-        Ok(status)
+        status
     }
 
     /// Row `c` of the last iterate's `u` (the global form's from its own data, as its

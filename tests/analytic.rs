@@ -46,7 +46,7 @@ fn check(problem: Problem, variant: &str, expected: [f64; 3], what: &str) {
         "{what} with {variant}: {:?}",
         solver.stats()
     );
-    let r = solver.solution().r;
+    let r = &solver.solution().r;
     let scale = 1.0 + expected.iter().map(|x| x.abs()).fold(0.0, f64::max);
     for k in 0..3 {
         assert!(

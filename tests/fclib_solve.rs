@@ -159,7 +159,7 @@ fn warm_start_from_a_solution_converges_at_once() {
     let mut solver = Solver::new(p.clone(), settings("auto")).unwrap();
     assert_eq!(solver.solve().unwrap(), Status::Solved);
     let cold = solver.stats().iterations;
-    let s = solver.solution();
+    let s = solver.solution().clone();
     solver.warm_start(&s.r, Some(&s.v)).unwrap();
     assert_eq!(solver.solve().unwrap(), Status::Solved);
     assert!(
@@ -272,7 +272,7 @@ fn fclib_round_trip_keeps_the_problem() {
         let mut solver = Solver::new(p.clone(), Settings::default()).unwrap();
         assert_eq!(solver.solve().unwrap(), Status::Solved, "{rel}");
         let sol = dir.join("s.hdf5");
-        fclib::write_solution(&sol, &solver.solution()).unwrap();
+        fclib::write_solution(&sol, solver.solution()).unwrap();
         let (written, original) = (fc_error(&path, &sol), fc_error(&common::data(rel), &sol));
         assert!(
             (written - original).abs() <= 1e-12 + 1e-9 * original,

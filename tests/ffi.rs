@@ -152,13 +152,15 @@ fn version_and_messages() {
         CADMM_ERR_IO,
         CADMM_ERR_UNSUPPORTED,
         CADMM_ERR_PANIC,
+        CADMM_ERR_PATTERN_CHANGED,
+        CADMM_ERR_OUT_OF_MEMORY,
     ];
     for (k, &c) in codes.iter().enumerate() {
         assert_eq!(c, k as i32 + 1);
         let m = msg(c);
         assert!(!m.is_empty() && m != "unknown result code", "{c}: {m}");
     }
-    for bad in [-1, 11, 99, i32::MIN, i32::MAX] {
+    for bad in [-1, 13, 99, i32::MIN, i32::MAX] {
         assert_eq!(msg(bad), "unknown result code");
     }
 }

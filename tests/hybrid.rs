@@ -184,7 +184,7 @@ fn light_sliding_contact_with_mu_10() {
             assert_solved(&problem, &solver, &format!("{what} {variant}"));
             // The measure is relative to ||u|| = 0.5, which dwarfs r (1e-3): at 1e-8 it
             // leaves r about 1e-7 of slack (seen with vp-N-Wohlberg, stopped by ADMM).
-            let r = solver.solution().r;
+            let r = &solver.solution().r;
             for k in 0..3 {
                 assert!(
                     (r[k] - exact[k]).abs() <= 1e-6,

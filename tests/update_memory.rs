@@ -87,7 +87,7 @@ fn rust_api() {
         }
         solver.update(problem(k)).unwrap();
         if k % 2 == 1 {
-            let r = solver.solution().r;
+            let r = solver.solution().r.clone();
             solver.warm_start(&r, None).unwrap();
         }
         assert_eq!(solver.solve().unwrap(), Status::Solved, "step {k}");

@@ -190,7 +190,7 @@ fn global_values_path_solves_like_a_whole_update() {
 fn solve_once(p: GlobalProblem) -> cadmm::Solution {
     let mut s = Solver::new(Problem::Global(p), settings()).unwrap();
     s.solve().unwrap();
-    s.solution()
+    s.solution().clone()
 }
 
 #[test]

@@ -126,7 +126,7 @@ fn measure(p: &Problem, islands: bool, a: &Args) -> Result<(Run, cadmm::Solution
                 error: st.error,
                 islands: st.islands,
             },
-            solver.solution(),
+            solver.solution().clone(),
         ));
     }
     times.sort_by(f64::total_cmp);

@@ -142,7 +142,7 @@ pub fn run(a: SolveArgs) -> ExitCode {
         let status = solver.solve()?;
         let st = *solver.stats();
         if let Some(out) = &out {
-            fclib::write_solution(out, &solver.solution())?;
+            fclib::write_solution(out, solver.solution())?;
         }
         let r = solver.resolved();
         Ok(format!(

@@ -66,7 +66,7 @@ fn work(a: &WorkerArgs) -> Result<String, cadmm::Error> {
         let mut solver = Solver::new(problem.clone(), settings(a, tol, false)?)?;
         let status = solver.solve()?;
         if tol == tmin {
-            fclib::write_solution(&a.out, &solver.solution())?;
+            fclib::write_solution(&a.out, solver.solution())?;
         }
         let st = solver.stats();
         let sep = if k == 0 { "" } else { ", " };

@@ -598,7 +598,7 @@ pub fn run(
                 }
                 p => crate::common::error(p, &sol.r, &sol.v, &sol.lambda),
             };
-            out.solution = sol;
+            out.solution = sol.clone();
         }
         Err(e) => out.status = format!("error: {e}"),
     }

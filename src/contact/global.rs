@@ -407,15 +407,17 @@ impl ContactForm for GlobalSplitting {
         Ok(())
     }
 
-    fn solution(&self, state: &EngineState) -> Solution {
+    fn write_solution(&self, state: &EngineState, out: &mut Solution) {
         let n = self.p.n();
-        let r: Vec<f64> = state.zeta.iter().map(|z| -state.rho * z).collect();
-        let v = self.sol[..n].to_vec();
-        let mut u = self.p.w.clone();
-        self.p.h.mul_t_vec(1.0, &v, 1.0, &mut u);
-        let mut lambda = vec![0.0; self.sol.len() - n];
-        Self::lambda_into(&self.sol, n, &mut lambda);
-        Solution { r, u, v, lambda }
+        out.r.clear();
+        out.r.extend(state.zeta.iter().map(|z| -state.rho * z));
+        out.v.clear();
+        out.v.extend_from_slice(&self.sol[..n]);
+        out.u.clone_from(&self.p.w);
+        self.p.h.mul_t_vec(1.0, &out.v, 1.0, &mut out.u);
+        out.lambda.clear();
+        out.lambda.resize(self.sol.len() - n, 0.0);
+        Self::lambda_into(&self.sol, n, &mut out.lambda);
     }
 
     fn set_measure_floors(&mut self, floors: Floors) {
@@ -435,7 +437,8 @@ impl ContactForm for GlobalSplitting {
     }
 
     fn certifies_infeasibility(&self, state: &EngineState) -> bool {
-        let s = self.solution(state);
+        let mut s = Solution::default();
+        self.write_solution(state, &mut s);
         run_off(&self.p.h, &s.r, &s.u, &self.p.w, &self.p.mu)
     }
 
@@ -450,12 +453,14 @@ impl ContactForm for GlobalSplitting {
         max_steps: usize,
         deadline: Option<Instant>,
     ) -> Result<NewtonOutcome, Error> {
+        let mut s = Solution::default();
+        self.write_solution(state, &mut s);
         let Solution {
             mut r,
             mut v,
             mut lambda,
             ..
-        } = self.solution(state);
+        } = s;
         let start = global_error_with(&self.p, &r, &v, &lambda, &mut self.measure);
         if self.newton.is_none() {
             let mut newton = GlobalNewton::new(&self.p)?;

@@ -270,16 +270,13 @@ impl ContactForm for LocalSplitting {
         Ok(())
     }
 
-    fn solution(&self, state: &EngineState) -> Solution {
-        let r = state.y.clone();
-        let mut u = vec![0.0; r.len()];
-        self.velocity(&r, &mut u);
-        Solution {
-            r,
-            u,
-            v: Vec::new(),
-            lambda: Vec::new(),
-        }
+    fn write_solution(&self, state: &EngineState, out: &mut Solution) {
+        out.r.clone_from(&state.y);
+        out.u.clear();
+        out.u.resize(out.r.len(), 0.0);
+        self.velocity(&out.r, &mut out.u);
+        out.v.clear();
+        out.lambda.clear();
     }
 
     fn set_measure_floors(&mut self, floors: Floors) {

@@ -50,8 +50,8 @@ pub(crate) trait ContactForm: Splitting + Send {
     /// Re-derives the form's own iterate (velocity, multipliers) from the engine state,
     /// after a step that went non-finite left it behind.
     fn recover(&mut self, state: &EngineState) -> Result<(), Error>;
-    /// The solution at the engine state.
-    fn solution(&self, state: &EngineState) -> Solution;
+    /// Writes the solution at the engine state into `out`, reusing its vectors.
+    fn write_solution(&self, state: &EngineState, out: &mut Solution);
     /// Floors of the error measure's denominators (an island's share of a scene's measure,
     /// docs/algorithms.md §12), for ADMM and the Newton phase alike.
     fn set_measure_floors(&mut self, floors: Floors);

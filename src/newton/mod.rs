@@ -14,6 +14,7 @@ mod testing;
 pub use alart_curnier::{ac_branch, ac_contact, Branch, Mat3};
 
 use crate::tuning::NEWTON;
+use crate::types::Status;
 use std::time::Instant;
 // The solvers' entry points, for the solver driver that will call them.
 #[allow(unused_imports)]
@@ -67,6 +68,22 @@ impl NewtonOutcome {
     /// True when the tolerance was reached.
     pub fn converged(&self) -> bool {
         self.status == NewtonStatus::Converged
+    }
+
+    /// The status of a solve that this Newton phase ends: `Solved` when its iterate `met`
+    /// the tolerance (as the caller measures what it hands back), `TimeLimit` when the
+    /// deadline passed, otherwise why Newton stopped. The one mapping of both Newton
+    /// paths (a coupled problem's phase, a small island's dense Newton).
+    pub fn status_when_final(&self, met: bool, deadline: Option<Instant>) -> Status {
+        let timed_out = self.status == NewtonStatus::Failed(FailReason::Deadline)
+            || deadline.is_some_and(|d| Instant::now() >= d);
+        match self.status {
+            _ if met => Status::Solved,
+            _ if timed_out => Status::TimeLimit,
+            NewtonStatus::Failed(FailReason::MaxIterations) => Status::MaxIterations,
+            NewtonStatus::Failed(FailReason::NonFinite) => Status::NumericalError,
+            _ => Status::Stalled,
+        }
     }
 }
 

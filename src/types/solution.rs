@@ -12,3 +12,19 @@ pub struct Solution {
     /// Joint multipliers (global form with joints only).
     pub lambda: Vec<f64>,
 }
+
+impl Solution {
+    /// Zeros of the given lengths (`3 nc` contact rows, `n` velocities, `np` joint
+    /// multipliers), reusing the vectors' memory.
+    pub(crate) fn zeroed(&mut self, rows: usize, n: usize, np: usize) {
+        for (x, len) in [
+            (&mut self.r, rows),
+            (&mut self.u, rows),
+            (&mut self.v, n),
+            (&mut self.lambda, np),
+        ] {
+            x.clear();
+            x.resize(len, 0.0);
+        }
+    }
+}

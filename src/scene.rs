@@ -1,0 +1,299 @@
+//! A scene split into its contact islands (docs/algorithms.md §12): the parts found once
+//! from the sparsity pattern, each solved by its own [`PartSolver`], and the whole
+//! problem, on which new values land first and the assembled solution is measured.
+
+use crate::csc::norm2;
+use crate::islands::{contact_rows, gather, positions, Part, Partition, EVERY_FIELD};
+use crate::measure::{global_error_with, local_error_with, MeasureWork, Scales};
+use crate::problem::{check_len, NewValues, Problem};
+use crate::settings::{NewtonUse, Settings};
+use crate::small_island::SmallWork;
+use crate::strategy::{PartSolver, SolveContext};
+use crate::tuning::{ISLAND_ROUNDS, ISLAND_TIGHTENING};
+use crate::types::{Error, Solution, Status};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// A problem split into islands: the structure found once from the sparsity pattern (the
+/// parts, where each row sits in its part) and each part's solver.
+pub(crate) struct Scene {
+    /// The whole problem: new values land here first, and the assembled solution is
+    /// measured on it.
+    pub(crate) whole: Problem,
+    /// The contact islands, then the contact-free part (global form) when there is one.
+    pub(crate) parts: Vec<PartSolver>,
+    /// Contact islands among `parts` (the first ones).
+    pub(crate) n_islands: usize,
+    /// Contacts no velocity moves (see [`Partition::bodiless`]).
+    bodiless: Vec<usize>,
+    measure: MeasureWork,
+    /// The whole problem's scales known before solving: `||f||`, `||b||` (local: `||q||`).
+    known_scales: Scales,
+    /// The part whose trace and residuals the solver reports (the one that needed the
+    /// most iterations in the last solve; none without parts).
+    pub(crate) slowest: Option<usize>,
+    /// Where each velocity (global) or contact row (local) sits in its part.
+    row_of: Vec<usize>,
+    /// Work space of the small islands, one per thread that solves them.
+    work: Vec<SmallWork>,
+}
+
+impl Scene {
+    pub(crate) fn new(
+        whole: Problem,
+        partition: Partition,
+        settings: &Settings,
+    ) -> Result<Self, Error> {
+        let Partition {
+            islands,
+            free,
+            bodiless,
+        } = partition;
+        let n_islands = islands.len();
+        let all: Vec<Part> = islands.into_iter().chain(free).collect();
+        let row_of = match &whole {
+            Problem::Global(g) => positions(&all.iter().collect::<Vec<_>>(), g.n(), true),
+            Problem::Local(l) => positions(&all.iter().collect::<Vec<_>>(), l.q.len(), false),
+        };
+        // Small islands go to Newton directly when the settings polish with Newton.
+        let newton_polish = settings.resolved().newton == NewtonUse::Polish;
+        let mut work = vec![SmallWork::default()];
+        let parts = all
+            .into_iter()
+            .map(|part| {
+                PartSolver::new(part, &whole, &row_of, settings, newton_polish, &mut work[0])
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let measure = match &whole {
+            Problem::Global(g) => MeasureWork::global(g),
+            Problem::Local(l) => MeasureWork::local(l),
+        };
+        let known_scales = match &whole {
+            Problem::Global(g) => Scales {
+                equation: norm2(&g.f),
+                contact: 0.0,
+                joint: g.joints.as_ref().map_or(0.0, |j| norm2(&j.b)),
+            },
+            Problem::Local(l) => Scales {
+                equation: norm2(&l.q),
+                ..Scales::default()
+            },
+        };
+        Ok(Self {
+            known_scales,
+            whole,
+            parts,
+            n_islands,
+            bodiless,
+            measure,
+            slowest: None,
+            row_of,
+            work,
+        })
+    }
+
+    pub(crate) fn update(&mut self, problem: Problem) -> Result<(), Error> {
+        self.whole.check_successor(&problem)?;
+        self.whole = problem;
+        self.distribute(&EVERY_FIELD)
+    }
+
+    pub(crate) fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
+        self.whole.set_values(values)?;
+        self.distribute(values)
+    }
+
+    /// Takes the settings a solve reads when it starts.
+    pub(crate) fn update_settings(&mut self, settings: &Settings) {
+        for p in &mut self.parts {
+            p.update_settings(settings);
+        }
+    }
+
+    /// Hands each part its share of the whole problem's values for the fields `given`
+    /// names. Every part is updated even when one fails, and the first error is returned.
+    fn distribute(&mut self, given: &NewValues) -> Result<(), Error> {
+        let mut first_error = Ok(());
+        for p in &mut self.parts {
+            let done = p.take_values(&self.whole, &self.row_of, given, &mut self.work[0]);
+            if first_error.is_ok() {
+                first_error = done;
+            }
+        }
+        first_error
+    }
+
+    pub(crate) fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
+        check_len("r", r, 3 * self.whole.n_contacts())?;
+        if let Some(v) = v {
+            check_len("v", v, self.whole.n_velocities())?;
+        }
+        for p in &mut self.parts {
+            gather(r, contact_rows(&p.part.contacts), &mut p.r);
+            if let Some(v) = v {
+                gather(v, p.part.velocities.iter().copied(), &mut p.v);
+            }
+            p.warm_start(v.is_some())?;
+        }
+        Ok(())
+    }
+
+    /// Solves the parts, assembles, measures the whole problem. Each island is measured
+    /// with floors at its share of the whole problem's scales (docs/algorithms.md §12):
+    /// first those known before solving (`||f||`, `||b||`; local: `||q||`), then, when the
+    /// assembled solution misses the tolerance, those of that solution, and the islands
+    /// are solved again, warm, to a tolerance tightened in proportion. The assembled
+    /// solution is left in `out`.
+    pub(crate) fn solve(
+        &mut self,
+        settings: &Settings,
+        t0: Instant,
+        out: &mut Solution,
+    ) -> Result<(Status, f64), Error> {
+        let tol = settings.tolerance;
+        let mut pending: Vec<bool> = vec![true; self.parts.len()];
+        for p in &mut self.parts {
+            p.tolerance = tol;
+            p.reset();
+            p.set_floors(self.known_scales);
+        }
+        let mut error = f64::INFINITY;
+        // With a bodiless contact that approaches, no round can meet the tolerance.
+        let rounds = if self.bodiless_blocked() {
+            1
+        } else {
+            ISLAND_ROUNDS
+        };
+        for round in 0..rounds {
+            self.solve_parts(&pending, settings, t0);
+            if let Some(Err(e)) = self.parts.iter().map(|p| &p.outcome).find(|o| o.is_err()) {
+                return Err(e.clone());
+            }
+            error = self.whole_error(out);
+            let all_solved = self
+                .parts
+                .iter()
+                .all(|p| matches!(p.outcome, Ok(Status::Solved)));
+            if error <= tol || !all_solved || round + 1 == rounds {
+                break;
+            }
+            let scales = self.measure.scales;
+            let factor = (tol / error).min(ISLAND_TIGHTENING);
+            for (p, again) in self.parts.iter_mut().zip(&mut pending) {
+                // The contact-free part is solved exactly already.
+                *again = !p.part.contacts.is_empty();
+                if *again {
+                    p.tolerance *= factor;
+                    p.set_floors(scales);
+                    let s = p.solution(&self.whole, &self.row_of);
+                    p.r.copy_from_slice(&s.r);
+                    p.v.copy_from_slice(&s.v);
+                    p.warm_start(!s.v.is_empty())?;
+                }
+            }
+        }
+        self.slowest = (0..self.parts.len()).max_by_key(|&k| self.parts[k].stats.iterations);
+        let infeasible = self.bodiless_blocked()
+            || self
+                .parts
+                .iter()
+                .any(|p| p.stats.status == Status::Infeasible);
+        let status = if infeasible {
+            Status::Infeasible
+        } else if error <= tol {
+            Status::Solved
+        } else if let Some(p) = self.parts.iter().find(|p| p.stats.status != Status::Solved) {
+            p.stats.status
+        } else {
+            Status::MaxIterations
+        };
+        Ok((status, error))
+    }
+
+    /// Solves the pending parts, on `threads` scoped threads when several are pending. The
+    /// parts are independent, so the results do not depend on the threads.
+    fn solve_parts(&mut self, pending: &[bool], settings: &Settings, t0: Instant) {
+        let Scene {
+            parts,
+            whole,
+            row_of,
+            work,
+            ..
+        } = self;
+        let at = SolveContext {
+            whole,
+            row_of,
+            settings,
+            t0,
+        };
+        let mut todo: Vec<&mut PartSolver> = parts
+            .iter_mut()
+            .zip(pending)
+            .filter_map(|(p, &again)| again.then_some(p))
+            .collect();
+        let threads = settings.threads.min(todo.len()).max(1);
+        if work.len() < threads {
+            work.resize_with(threads, SmallWork::default);
+        }
+        if threads == 1 {
+            let work = &mut work[0];
+            todo.into_iter().for_each(|p| p.solve(&at, work));
+            return;
+        }
+        // Largest parts first, so that the last one taken is a small one.
+        todo.sort_by_key(|p| std::cmp::Reverse(p.part.contacts.len() + p.part.velocities.len()));
+        let queue = Mutex::new(todo.into_iter());
+        std::thread::scope(|scope| {
+            for work in work.iter_mut().take(threads) {
+                let (queue, at) = (&queue, &at);
+                scope.spawn(move || loop {
+                    let next = queue.lock().map(|mut q| q.next());
+                    match next {
+                        Ok(Some(p)) => p.solve(at, work),
+                        _ => break,
+                    }
+                });
+            }
+        });
+    }
+
+    /// True when a bodiless contact approaches (`w_N < 0`): the criterion of the forms'
+    /// `blocked_contact`, its normal column of H being empty. One that does not is solved
+    /// exactly by `r = 0`.
+    fn bodiless_blocked(&self) -> bool {
+        match &self.whole {
+            Problem::Global(g) => self.bodiless.iter().any(|&c| g.w[3 * c] < 0.0),
+            Problem::Local(_) => false,
+        }
+    }
+
+    /// Writes the solution of the whole problem from the parts' into `out` (bodiless
+    /// contacts: `r = 0`, `u = w`), reusing its vectors.
+    fn assemble(&self, out: &mut Solution) {
+        let (n, m) = (self.whole.n_velocities(), 3 * self.whole.n_contacts());
+        let np = match &self.whole {
+            Problem::Global(g) => g.n_joints(),
+            Problem::Local(_) => 0,
+        };
+        out.zeroed(m, n, np);
+        if let Problem::Global(g) = &self.whole {
+            for &c in &self.bodiless {
+                out.u[3 * c..3 * c + 3].copy_from_slice(&g.w[3 * c..3 * c + 3]);
+            }
+        }
+        for p in &self.parts {
+            p.write_solution(&self.whole, &self.row_of, out);
+        }
+    }
+
+    /// The whole problem's error measure at the assembled solution, left in `out`.
+    fn whole_error(&mut self, out: &mut Solution) -> f64 {
+        self.assemble(out);
+        match &self.whole {
+            Problem::Global(g) => {
+                global_error_with(g, &out.r, &out.v, &out.lambda, &mut self.measure)
+            }
+            Problem::Local(l) => local_error_with(l, &out.r, &mut self.measure),
+        }
+    }
+}

@@ -16,6 +16,7 @@
 use crate::cone::{de_saxce, get3, project_cone};
 use crate::csc::norm2;
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
+use crate::types::Solution;
 
 /// Denominators below this are skipped (the residual is taken as it is).
 pub const TINY: f64 = 1.5e-8;
@@ -79,6 +80,14 @@ pub struct MeasureWork {
 }
 
 impl MeasureWork {
+    /// Work space for a problem of either form.
+    pub fn new(p: &Problem) -> Self {
+        match p {
+            Problem::Global(g) => Self::global(g),
+            Problem::Local(l) => Self::local(l),
+        }
+    }
+
     /// Work vectors sized for a global problem (`n`, `3 nc` and the joint rows).
     pub fn global(p: &GlobalProblem) -> Self {
         let mut work = Self::default();
@@ -248,5 +257,13 @@ pub fn problem_error(p: &Problem, r: &[f64], v: &[f64], lambda: &[f64]) -> f64 {
     match p {
         Problem::Global(g) => global_error(g, r, v, lambda),
         Problem::Local(l) => local_error(l, r),
+    }
+}
+
+/// The error measure of a solution of either form, with work space.
+pub(crate) fn solution_error(p: &Problem, s: &Solution, work: &mut MeasureWork) -> f64 {
+    match p {
+        Problem::Global(g) => global_error_with(g, &s.r, &s.v, &s.lambda, work),
+        Problem::Local(l) => local_error_with(l, &s.r, work),
     }
 }

@@ -356,6 +356,13 @@ impl Problem {
             Problem::Local(l) => l.n_contacts(),
         }
     }
+    /// Number of joint multipliers (0 without joints, and for a local problem).
+    pub fn n_joints(&self) -> usize {
+        match self {
+            Problem::Global(g) => g.n_joints(),
+            Problem::Local(_) => 0,
+        }
+    }
     /// Friction coefficients.
     pub fn mu(&self) -> &[f64] {
         match self {

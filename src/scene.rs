@@ -4,7 +4,7 @@
 
 use crate::csc::norm2;
 use crate::islands::{contact_rows, gather, positions, Part, Partition, EVERY_FIELD};
-use crate::measure::{global_error_with, local_error_with, MeasureWork, Scales};
+use crate::measure::{solution_error, MeasureWork, Scales};
 use crate::problem::{check_len, NewValues, Problem};
 use crate::settings::{NewtonUse, Settings};
 use crate::small_island::SmallWork;
@@ -64,10 +64,7 @@ impl Scene {
                 PartSolver::new(part, &whole, &row_of, settings, newton_polish, &mut work[0])
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let measure = match &whole {
-            Problem::Global(g) => MeasureWork::global(g),
-            Problem::Local(l) => MeasureWork::local(l),
-        };
+        let measure = MeasureWork::new(&whole);
         let known_scales = match &whole {
             Problem::Global(g) => Scales {
                 equation: norm2(&g.f),
@@ -271,11 +268,7 @@ impl Scene {
     /// contacts: `r = 0`, `u = w`), reusing its vectors.
     fn assemble(&self, out: &mut Solution) {
         let (n, m) = (self.whole.n_velocities(), 3 * self.whole.n_contacts());
-        let np = match &self.whole {
-            Problem::Global(g) => g.n_joints(),
-            Problem::Local(_) => 0,
-        };
-        out.zeroed(m, n, np);
+        out.zeroed(m, n, self.whole.n_joints());
         if let Problem::Global(g) = &self.whole {
             for &c in &self.bodiless {
                 out.u[3 * c..3 * c + 3].copy_from_slice(&g.w[3 * c..3 * c + 3]);
@@ -289,11 +282,6 @@ impl Scene {
     /// The whole problem's error measure at the assembled solution, left in `out`.
     fn whole_error(&mut self, out: &mut Solution) -> f64 {
         self.assemble(out);
-        match &self.whole {
-            Problem::Global(g) => {
-                global_error_with(g, &out.r, &out.v, &out.lambda, &mut self.measure)
-            }
-            Problem::Local(l) => local_error_with(l, &out.r, &mut self.measure),
-        }
+        solution_error(&self.whole, out, &mut self.measure)
     }
 }

@@ -59,11 +59,11 @@ impl Solver {
             (Problem::Local(l), true) => Some(partition_local(l)),
         };
         let mut solution = Solution::default();
-        let joints = match &problem {
-            Problem::Global(g) => g.n_joints(),
-            Problem::Local(_) => 0,
-        };
-        solution.zeroed(3 * problem.n_contacts(), problem.n_velocities(), joints);
+        solution.zeroed(
+            3 * problem.n_contacts(),
+            problem.n_velocities(),
+            problem.n_joints(),
+        );
         let (layout, n_islands) = match partition {
             Some(p) if !p.is_whole() => {
                 let split = Scene::new(problem, p, &settings)?;

@@ -7,8 +7,8 @@
 mod common;
 
 use cadmm::{
-    fclib, CscMatrix, GlobalProblem, LocalProblem, NewValues, Problem, Settings, Solution, Solver,
-    Status, VariantChoice,
+    fclib, CscMatrix, GlobalProblem, LocalProblem, NewValues, Phase, Problem, Settings, Solution,
+    Solver, Status, VariantChoice,
 };
 
 const TOL: f64 = 1e-8;
@@ -509,4 +509,57 @@ fn free_bodies_coupled_by_a_one_sided_entry_of_m() {
         assert!((v - f / 2.0).abs() <= 1e-12, "v[{i}] = {v}");
     }
     assert!(independent_error(&scene, s) <= TOL);
+}
+
+/// A small island is solved by Newton on its dense Delassus form first; when that fails,
+/// ADMM takes over, and Newton runs again only once ADMM hands over, not straight away from
+/// the start it just failed from (it used to run a second, global Newton phase first). The
+/// island here has no solution (`tests/hybrid.rs`: the fuzzed one-velocity problem), so the
+/// dense Newton phase cannot end it; a separate body resting on the ground makes a second
+/// island.
+#[test]
+fn a_small_island_whose_newton_fails_goes_on_with_admm() {
+    let one_velocity = GlobalProblem::new(
+        CscMatrix::new("M", 1, 1, vec![0, 1], vec![0], vec![10.666666666666666]).unwrap(),
+        CscMatrix::new(
+            "H",
+            1,
+            3,
+            vec![0, 1, 2, 3],
+            vec![0, 0, 0],
+            vec![1.0, -2.6666666666666665, -1.0],
+        )
+        .unwrap(),
+        vec![-8.0],
+        vec![-8.0; 3],
+        vec![1.3],
+    )
+    .unwrap();
+    let resting = GlobalProblem::new(
+        CscMatrix::identity(3),
+        CscMatrix::identity(3),
+        vec![-9.81, 0.0, 0.0],
+        vec![0.0; 3],
+        vec![0.5],
+    )
+    .unwrap();
+    let scene = Problem::block_diagonal(&[Problem::Global(one_velocity), Problem::Global(resting)])
+        .unwrap();
+    let settings = Settings {
+        max_iterations: 2_000,
+        trace: true,
+        ..Settings::default()
+    };
+    let mut solver = Solver::new(scene, settings).unwrap();
+    let status = solver.solve().unwrap();
+    assert_ne!(status, Status::Solved);
+    assert_eq!(solver.island_stats().len(), 2);
+    let failed = &solver.island_stats()[0];
+    assert!(failed.newton_fallbacks >= 1, "{failed:?}");
+    // The trace is the failed island's (it took the most iterations): the dense Newton
+    // phase, then ADMM iterations.
+    let trace = solver.trace();
+    assert!(trace.len() >= 2, "{trace:?}");
+    assert_eq!(trace[0].phase, Phase::Newton, "{:?}", &trace[..2]);
+    assert_eq!(trace[1].phase, Phase::Admm, "{:?}", &trace[..2]);
 }

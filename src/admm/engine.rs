@@ -1,8 +1,13 @@
-//! The ADMM loop: one implementation for every problem, rule and acceleration.
+//! The ADMM loop: one implementation for every problem, rule and acceleration
+//! (docs/algorithms.md §4.1, §5-§8). The loop reads as the algorithm; its parts are the
+//! accelerator (next input), the handover monitor, the best iterate, the s schedule and
+//! the stopping test.
 
-use super::anderson::Anderson;
+use super::accelerator::{Accelerator, Screen};
+use super::best_iterate::BestIterate;
+use super::handover::{Handover, HandoverMonitor};
 use super::rho_rule::{IterationView, RhoAdapter};
-use super::{Relaxation, SUpdate, Splitting, Variant};
+use super::{SUpdate, Splitting, Variant};
 use crate::csc::norm2;
 use crate::types::{Error, Status};
 use crate::types::{Phase, TracePoint};
@@ -38,20 +43,6 @@ pub struct EngineSettings {
     pub rho_range: f64,
     /// When to stop and hand the iterate over to a finishing phase (none: run to the end).
     pub handover: Option<Handover>,
-}
-
-/// When the loop hands its iterate over to a finishing phase (the Newton polish): once the
-/// error measure is below `error_below`, or when it stalls, i.e. fails to halve over
-/// `stall_checks` consecutive evaluations.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Handover {
-    /// Hand over at or below this error.
-    pub error_below: f64,
-    /// Hand over when the error has not halved over this many evaluations (0: never).
-    pub stall_checks: usize,
-    /// ... but not below `error_below` while the current rate would reach the tolerance
-    /// within this many iterations.
-    pub finish_within: usize,
 }
 
 /// The iterate the loop works on; the caller initializes it (warm start) and reads it back.
@@ -90,9 +81,14 @@ pub struct EngineOutcome {
     pub handed_over: bool,
 }
 
-fn finite(x: &[f64]) -> bool {
-    x.iter().all(|v| v.is_finite())
-}
+/// External s update's first inner tolerance: loose, for a guessed shift (docs/algorithms.md §5).
+const INNER_TOL_START: f64 = 1e-3;
+/// Each external s update tightens the inner tolerance tenfold (docs/algorithms.md §5).
+const INNER_TOL_SHRINK: f64 = 0.1;
+/// Inner solves go no further than a decade below the outer tolerance (docs/algorithms.md §5).
+const INNER_TOL_FLOOR: f64 = 0.1;
+/// Floor of the external update's scales: its relative test stays defined at a zero iterate.
+const TINY_SCALE: f64 = 1e-300;
 
 /// Runs ADMM from `state` until the problem's error measure reaches the tolerance or a
 /// limit is hit. `state` holds the last finite iterate on return.
@@ -102,270 +98,83 @@ pub fn run(
     set: &EngineSettings,
     start: Instant,
 ) -> Result<EngineOutcome, Error> {
-    let l = sp.dim();
-    let rho0 = state.rho;
-    let (rho_min, rho_max) = (rho0 / set.rho_range, rho0 * set.rho_range);
+    let (rho_min, rho_max) = (state.rho / set.rho_range, state.rho * set.rho_range);
     sp.set_rho(state.rho)?;
     let mut out = EngineOutcome {
         error: f64::INFINITY,
         ..Default::default()
     };
-
-    // Inputs of the next iteration (hat variables), its outputs, and work vectors.
-    let mut y_in = state.y.clone();
-    let mut z_in = state.zeta.clone();
-    let mut y = vec![0.0; l];
-    let mut zeta = vec![0.0; l];
-    let mut ax = vec![0.0; l];
-    let mut diff = vec![0.0; l];
-    // Nesterov memory: previous outputs.
-    let mut y_prev = y_in.clone();
-    let mut z_prev = z_in.clone();
-    let (mut alpha, mut e_prev) = (1.0f64, f64::INFINITY);
-    let eta = 0.999;
-    let relaxation = if set.anderson > 0 {
-        Relaxation::None
-    } else {
-        set.variant.relaxation
-    };
-    // Anderson on the stacked state (y, zeta).
-    let mut aa = Anderson::new(set.anderson, 2 * l);
-    let mut aa_x = vec![0.0; if set.anderson > 0 { 2 * l } else { 0 }];
-    let mut aa_g = aa_x.clone();
-    let mut aa_next = aa_x.clone();
-    let mut plain = aa_x.clone(); // fallback when an accelerated point is rejected
-    let mut last_was_aa = false;
+    // Everything the loop works with is made here: the loop does not allocate.
+    let l = sp.dim();
+    let mut w = Work::new(state, l);
+    let mut accel = Accelerator::new(set, &state.y, &state.zeta);
+    let mut rule = RhoAdapter::new(set.variant.rule, l);
+    let mut shift = ShiftSchedule::new(set);
+    let mut stop = StopTest::new(set, start);
+    let mut best = BestIterate::new(state, sp);
+    let mut rho = state.rho;
     // Whether the form's own x iterate (the global form's velocity) came from a rejected
     // step and so does not belong to the state's iterate.
     let mut x_stale = false;
-    let mut res_prev = f64::INFINITY;
-
-    let mut rule = RhoAdapter::new(set.variant.rule, l);
-    let mut rho = state.rho;
-    // Errors of the last evaluations, for the stall test of the handover.
-    let stall_checks = set.handover.map_or(0, |h| h.stall_checks);
-    let mut recent = vec![f64::INFINITY; stall_checks];
-    let mut checks = 0usize;
-    let mut last_check_error = f64::INFINITY;
-    // The iterate with the smallest measured error, handed back when a limit ends the run
-    // (its buffers allocated here: the loop does not allocate).
-    let mut best = BestIterate::new(state, sp);
-    let mut inner_tol = if set.s_update == SUpdate::External {
-        1e-3f64.max(set.tolerance)
-    } else {
-        0.0
-    };
 
     for k in 0..set.max_iterations {
-        sp.x_step(&y_in, &z_in, rho, &mut ax);
-        sp.y_step(&ax, &z_in, &mut y);
-        let c = sp.c();
-        let mut primal_sq = 0.0;
-        for i in 0..l {
-            let r = ax[i] - c[i] - y[i];
-            zeta[i] = z_in[i] + r;
-            primal_sq += r * r;
-            diff[i] = y[i] - y_in[i];
-        }
-        let primal = primal_sq.sqrt();
-        let dual = rho * sp.norm_at(&diff);
-        out.iterations = k + 1;
-        out.primal = primal;
-        out.dual = dual;
-        if !(finite(&ax) && finite(&y) && finite(&zeta) && dual.is_finite()) {
+        // x-step, y-step, dual update.
+        sp.x_step(&w.y_in, &w.z_in, rho, &mut w.ax);
+        sp.y_step(&w.ax, &w.z_in, &mut w.y);
+        let primal_sq = w.dual_update(sp.c());
+        let (primal, dual) = (primal_sq.sqrt(), rho * sp.norm_at(&w.diff));
+        (out.iterations, out.primal, out.dual) = (k + 1, primal, dual);
+        if !(w.finite() && dual.is_finite()) {
             out.status = Some(Status::NumericalError);
             break; // state still holds the last finite iterate
         }
-
-        // Anderson safeguard: an accelerated input whose fixed-point residual grew is
-        // rejected; the iteration restarts from the plain point it replaced.
-        if set.anderson > 0 {
-            let res = (primal_sq + norm2(&diff).powi(2)).sqrt();
-            if last_was_aa && res > res_prev {
+        // A rejected Anderson point voids the iteration: it restarts from the plain point.
+        match accel.screen(primal_sq, &w.diff, &mut w.y_in, &mut w.z_in) {
+            Screen::Rejected => {
                 out.aa_rejected += 1;
                 x_stale = true;
-                aa.reset();
-                last_was_aa = false;
-                y_in.copy_from_slice(&plain[..l]);
-                z_in.copy_from_slice(&plain[l..]);
                 continue;
             }
-            if last_was_aa {
-                out.aa_accepted += 1;
-            }
-            res_prev = res;
+            Screen::Accepted => out.aa_accepted += 1,
+            Screen::Plain => {}
         }
-
-        // The state now holds a finite iterate.
         x_stale = false;
-        state.y.copy_from_slice(&y);
-        state.zeta.copy_from_slice(&zeta);
-        state.ax.copy_from_slice(&ax);
-        state.rho = rho;
+        w.keep(state, rho); // the state now holds a finite iterate
 
-        // Stopping: the residual test (docs/algorithms.md §8) is a cheap trigger; the decision is the
-        // problem's own error measure, also evaluated periodically.
-        // max(||A x||, ||y||): the c-independent part of the primal scale, used three times.
-        let xy_scale = norm2(&ax).max(norm2(&y));
-        let eps_pri = (l as f64).sqrt() * set.eps_abs + set.eps_rel * xy_scale.max(norm2(sp.c()));
-        let residual_test = primal <= eps_pri && {
-            let eps_dual = (l as f64).sqrt() * set.eps_abs + set.eps_rel * rho * sp.norm_at(&zeta);
-            dual <= eps_dual
-        };
-        // The trace measures every iteration, but only the iterations measured without it
-        // decide (stop, hand over): tracing must not change the solve.
-        let check = residual_test || (k + 1) % set.check_every == 0 || k + 1 == set.max_iterations;
-        if check || set.trace {
-            let error = sp.error(&ax, &y, &zeta, rho);
-            if set.trace {
-                out.trace.push(TracePoint {
-                    iteration: k + 1,
-                    seconds: start.elapsed().as_secs_f64(),
-                    error,
-                    primal_residual: primal,
-                    dual_residual: dual,
-                    rho,
-                    anderson_accepted: out.aa_accepted,
-                    anderson_rejected: out.aa_rejected,
-                    phase: Phase::Admm,
-                });
-            }
-            if check {
-                out.error = error;
-                best.offer(error, state, sp);
-            }
-        }
-        if check {
-            if out.error <= set.tolerance {
-                out.status = Some(Status::Solved);
-                break;
-            }
-            if let Some(h) = set.handover {
-                let stalled = stall_checks > 0 && {
-                    let oldest = recent[checks % stall_checks];
-                    recent[checks % stall_checks] = out.error;
-                    checks += 1;
-                    checks > stall_checks && out.error > 0.5 * oldest
-                };
-                // ADMM about to finish on its own (at the rate of the last evaluations) is
-                // cheaper than a Newton phase: no handover then.
-                let rate = out.error / last_check_error;
-                let finishing = rate < 1.0
-                    && (set.tolerance / out.error).ln() / rate.ln() * set.check_every as f64
-                        <= h.finish_within as f64;
-                last_check_error = out.error;
-                if (out.error <= h.error_below && !finishing) || stalled {
-                    out.handed_over = true;
-                    break;
-                }
-            }
-        }
-        if start.elapsed().as_secs_f64() > set.time_limit {
-            out.status = Some(Status::TimeLimit);
+        // Measure; stop test.
+        let r = w.residuals(primal, dual);
+        if stop.ends(sp, state, k, &r, &mut out, &mut best) {
             break;
         }
-
-        // s update.
-        match set.s_update {
-            SUpdate::Internal => {
-                sp.update_s(&ax, &y);
-            }
-            SUpdate::External => {
-                let scale = xy_scale.max(norm2(sp.c())).max(1e-300);
-                if primal <= inner_tol * scale
-                    && dual <= inner_tol * rho * sp.norm_at(&zeta).max(1e-300)
-                {
-                    sp.update_s(&ax, &y);
-                    inner_tol = (inner_tol * 0.1).max(0.1 * set.tolerance);
-                }
-            }
-        }
-
-        // Next penalty, from this iteration's quantities.
-        let dual_scale = if rule.needs_dual_scale() {
-            sp.norm_at(&zeta)
-        } else {
-            0.0
-        };
-        let view = IterationView {
-            k,
-            rho,
-            primal,
-            dual,
-            primal_scale: xy_scale.max(norm2(sp.c())),
-            dual_scale,
-            ax: &ax,
-            y: &y,
-            zeta: &zeta,
-            zeta_in: &z_in,
-            y_in: &y_in,
-            c: sp.c(),
-        };
-        let rho_next = rule.next_rho(&view).clamp(rho_min, rho_max);
-
-        // Next input: Anderson, Nesterov relaxation (with restart), or the plain output.
-        if set.anderson > 0 {
-            aa_x[..l].copy_from_slice(&y_in);
-            aa_x[l..].copy_from_slice(&z_in);
-            aa_g[..l].copy_from_slice(&y);
-            aa_g[l..].copy_from_slice(&zeta);
-            // The history grows every iteration; the extrapolated point is used only on
-            // the iterations that try it.
-            let extrapolated = aa.step(&aa_x, &aa_g, &mut aa_next);
-            last_was_aa = extrapolated && (k + 1) % set.anderson_interval.max(1) == 0;
-            plain.copy_from_slice(&aa_g);
-            let next = if last_was_aa { &aa_next } else { &aa_g };
-            y_in.copy_from_slice(&next[..l]);
-            z_in.copy_from_slice(&next[l..]);
-        } else {
-            let mut relax = relaxation != Relaxation::None;
-            if relaxation == Relaxation::NesterovRestart {
-                let e = norm_diff_sq(&zeta, &z_in) + norm_diff_sq(&y, &y_in);
-                if e < eta * e_prev {
-                    e_prev = e;
-                } else {
-                    relax = false;
-                    alpha = 1.0;
-                    e_prev /= eta;
-                }
-            }
-            if relax {
-                let alpha_next = 0.5 * (1.0 + (1.0 + 4.0 * alpha * alpha).sqrt());
-                let beta = (alpha - 1.0) / alpha_next;
-                for i in 0..l {
-                    y_in[i] = y[i] + beta * (y[i] - y_prev[i]);
-                    z_in[i] = zeta[i] + beta * (zeta[i] - z_prev[i]);
-                }
-                alpha = alpha_next;
-            } else {
-                y_in.copy_from_slice(&y);
-                z_in.copy_from_slice(&zeta);
-            }
-            y_prev.copy_from_slice(&y);
-            z_prev.copy_from_slice(&zeta);
-        }
-
+        // s update (docs/algorithms.md §5).
+        shift.update(sp, &w, rho, &r);
+        // Next rho, from this iteration's quantities (and c after the s update).
+        let rho_next = next_rho(&mut rule, sp, &w, k, rho, &r).clamp(rho_min, rho_max);
+        // Next input.
+        accel.next_input(k, &w.y, &w.zeta, &mut w.y_in, &mut w.z_in);
         if rho_next != rho {
             // Scaled form: the unscaled dual rho * zeta is what must stay put.
             let s = rho / rho_next;
-            for v in z_in
-                .iter_mut()
-                .chain(z_prev.iter_mut())
-                .chain(plain.iter_mut().skip(l))
-            {
-                *v *= s;
-            }
+            w.z_in.iter_mut().for_each(|v| *v *= s);
+            accel.rho_changed(s);
             rho = rho_next;
             sp.set_rho(rho)?;
-            // Momentum and Anderson history mix iterates of the maps of two penalties:
-            // both restart. (Nesterov momentum carried across the spectral rule's frequent
-            // changes kept vp-R-Spectral from converging on GFC3D_Example1.)
-            alpha = 1.0;
-            aa.reset();
-            last_was_aa = false;
-            res_prev = f64::INFINITY;
         }
     }
+    finish(sp, state, &best, x_stale, &mut w.ax, &mut out);
+    Ok(out)
+}
+
+/// Ends a run: the status of a loop that ran out of iterations, and the iterate handed back
+/// (the best one when a limit ended the run) with its error measured at it.
+fn finish(
+    sp: &mut dyn Splitting,
+    state: &mut EngineState,
+    best: &BestIterate,
+    x_stale: bool,
+    ax: &mut [f64],
+    out: &mut EngineOutcome,
+) {
     if out.status.is_none() && !out.handed_over {
         out.status = Some(Status::MaxIterations);
     }
@@ -373,68 +182,254 @@ pub fn run(
         // The limit struck on a rejected Anderson step: the form's x iterate is that of
         // the rejected point. Take it from the kept iterate (the plain step the rejection
         // restarts from), so that what is measured and handed back is one iterate.
-        sp.x_step(&state.y, &state.zeta, state.rho, &mut ax);
+        sp.x_step(&state.y, &state.zeta, state.rho, ax);
     }
     if out.status != Some(Status::Solved) {
         out.error = sp.error(&state.ax, &state.y, &state.zeta, state.rho);
     }
     if matches!(out.status, Some(Status::MaxIterations | Status::TimeLimit))
-        && best.error < out.error
+        && best.error() < out.error
     {
         // ADMM's error is not monotone: a limit hands back the best iterate of the run,
         // measured again.
         best.restore(state, sp);
         out.error = sp.error(&state.ax, &state.y, &state.zeta, state.rho);
     }
-    Ok(out)
 }
 
-/// The iterate with the smallest measured error of a run: the engine state and the
-/// splitting's own part ([`Splitting::save_iterate`]). Offers copy into the buffers made
-/// by [`BestIterate::new`].
-struct BestIterate {
-    error: f64,
-    state: EngineState,
-    own: Vec<f64>,
+/// The loop's vectors: the input of an iteration (the hat variables, which relaxation and
+/// Anderson produce), its output, and `y+ - y_in`.
+struct Work {
+    y_in: Vec<f64>,
+    z_in: Vec<f64>,
+    y: Vec<f64>,
+    zeta: Vec<f64>,
+    ax: Vec<f64>,
+    diff: Vec<f64>,
 }
 
-impl BestIterate {
-    /// Buffers shaped like `state` and the splitting's own part; no iterate kept yet.
-    fn new(state: &EngineState, sp: &dyn Splitting) -> Self {
-        let mut own = Vec::new();
-        sp.save_iterate(&mut own);
+impl Work {
+    /// The first input is the state; the other vectors have the dimension `l`.
+    fn new(state: &EngineState, l: usize) -> Self {
         Self {
-            error: f64::INFINITY,
-            state: state.clone(),
-            own,
+            y_in: state.y.clone(),
+            z_in: state.zeta.clone(),
+            y: vec![0.0; l],
+            zeta: vec![0.0; l],
+            ax: vec![0.0; l],
+            diff: vec![0.0; l],
         }
     }
 
-    /// Keeps the current iterate when `error` is the smallest so far.
-    fn offer(&mut self, error: f64, state: &EngineState, sp: &dyn Splitting) {
-        if error >= self.error {
-            return;
+    /// `zeta+ = zeta_in + A x+ - c - y+` and `y+ - y_in`; returns the squared primal
+    /// residual `||A x+ - c - y+||^2`.
+    fn dual_update(&mut self, c: &[f64]) -> f64 {
+        let mut primal_sq = 0.0;
+        for i in 0..self.y.len() {
+            let r = self.ax[i] - c[i] - self.y[i];
+            self.zeta[i] = self.z_in[i] + r;
+            primal_sq += r * r;
+            self.diff[i] = self.y[i] - self.y_in[i];
         }
-        self.state.y.copy_from_slice(&state.y);
-        self.state.zeta.copy_from_slice(&state.zeta);
-        self.state.ax.copy_from_slice(&state.ax);
-        self.state.rho = state.rho;
-        // Within the capacity `new` gave it.
-        self.own.clear();
-        sp.save_iterate(&mut self.own);
-        self.error = error;
+        primal_sq
     }
 
-    /// Makes the kept iterate the current one (only after an offer was kept).
-    fn restore(&self, state: &mut EngineState, sp: &mut dyn Splitting) {
-        state.y.copy_from_slice(&self.state.y);
-        state.zeta.copy_from_slice(&self.state.zeta);
-        state.ax.copy_from_slice(&self.state.ax);
-        state.rho = self.state.rho;
-        sp.restore_iterate(&self.own);
+    /// The iteration's output is finite.
+    fn finite(&self) -> bool {
+        finite(&self.ax) && finite(&self.y) && finite(&self.zeta)
+    }
+
+    /// The iteration's residuals with the scale of its output.
+    fn residuals(&self, primal: f64, dual: f64) -> Residuals {
+        Residuals {
+            primal,
+            dual,
+            xy_scale: norm2(&self.ax).max(norm2(&self.y)),
+        }
+    }
+
+    /// Makes the iteration's output, at penalty `rho`, the state's iterate.
+    fn keep(&self, state: &mut EngineState, rho: f64) {
+        state.y.copy_from_slice(&self.y);
+        state.zeta.copy_from_slice(&self.zeta);
+        state.ax.copy_from_slice(&self.ax);
+        state.rho = rho;
     }
 }
 
-fn norm_diff_sq(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(p, q)| (p - q) * (p - q)).sum()
+fn finite(x: &[f64]) -> bool {
+    x.iter().all(|v| v.is_finite())
+}
+
+/// An iteration's residuals (docs/algorithms.md §4.1) and the scale they are judged by.
+struct Residuals {
+    primal: f64,
+    dual: f64,
+    /// `max(||A x+||, ||y+||)`: the c-independent part of the primal scale, which the
+    /// residual test, the external s update and the penalty rule each complete with `||c||`.
+    xy_scale: f64,
+}
+
+/// The stopping test (docs/algorithms.md §8): the residual test is a cheap trigger; the
+/// decision is the problem's own error measure, also evaluated periodically. Then the
+/// handover, then the wall clock.
+struct StopTest<'a> {
+    set: &'a EngineSettings,
+    start: Instant,
+    monitor: Option<HandoverMonitor>,
+}
+
+impl<'a> StopTest<'a> {
+    fn new(set: &'a EngineSettings, start: Instant) -> Self {
+        let monitor = set
+            .handover
+            .map(|h| HandoverMonitor::new(h, set.tolerance, set.check_every));
+        Self {
+            set,
+            start,
+            monitor,
+        }
+    }
+
+    /// Measures the `k`-th (0-based) iteration, whose iterate `state` holds; true, with the
+    /// ending set in `out`, when the loop ends there.
+    fn ends(
+        &mut self,
+        sp: &mut dyn Splitting,
+        state: &EngineState,
+        k: usize,
+        r: &Residuals,
+        out: &mut EngineOutcome,
+        best: &mut BestIterate,
+    ) -> bool {
+        let set = self.set;
+        // The trace measures every iteration, but only the iterations measured without it
+        // decide (stop, hand over): tracing must not change the solve.
+        let check = self.residual_test(sp, state, r)
+            || (k + 1) % set.check_every == 0
+            || k + 1 == set.max_iterations;
+        if check || set.trace {
+            let error = sp.error(&state.ax, &state.y, &state.zeta, state.rho);
+            if set.trace {
+                let seconds = self.start.elapsed().as_secs_f64();
+                out.record(k, seconds, error, state.rho);
+            }
+            if check {
+                out.error = error;
+                best.offer(error, state, sp);
+            }
+        }
+        if check && out.error <= set.tolerance {
+            out.status = Some(Status::Solved);
+        } else if check
+            && self
+                .monitor
+                .as_mut()
+                .is_some_and(|m| m.hand_over(out.error))
+        {
+            out.handed_over = true;
+        } else if self.start.elapsed().as_secs_f64() > set.time_limit {
+            out.status = Some(Status::TimeLimit);
+        }
+        out.status.is_some() || out.handed_over
+    }
+
+    /// Boyd et al.'s residual test; `||A^T zeta+||` is computed only when the primal
+    /// residual passes.
+    fn residual_test(&self, sp: &mut dyn Splitting, state: &EngineState, r: &Residuals) -> bool {
+        let set = self.set;
+        let sqrt_l = (state.y.len() as f64).sqrt();
+        let eps_pri = sqrt_l * set.eps_abs + set.eps_rel * r.xy_scale.max(norm2(sp.c()));
+        r.primal <= eps_pri && {
+            let eps_dual = sqrt_l * set.eps_abs + set.eps_rel * state.rho * sp.norm_at(&state.zeta);
+            r.dual <= eps_dual
+        }
+    }
+}
+
+impl EngineOutcome {
+    /// Appends the trace point of the `k`-th (0-based) iteration, measured at `error`.
+    fn record(&mut self, k: usize, seconds: f64, error: f64, rho: f64) {
+        self.trace.push(TracePoint {
+            iteration: k + 1,
+            seconds,
+            error,
+            primal_residual: self.primal,
+            dual_residual: self.dual,
+            rho,
+            anderson_accepted: self.aa_accepted,
+            anderson_rejected: self.aa_rejected,
+            phase: Phase::Admm,
+        });
+    }
+}
+
+/// When the De Saxce shift `s` is updated (docs/algorithms.md §5).
+struct ShiftSchedule {
+    mode: SUpdate,
+    tolerance: f64,
+    /// The external update's inner tolerance.
+    inner_tol: f64,
+}
+
+impl ShiftSchedule {
+    fn new(set: &EngineSettings) -> Self {
+        let inner_tol = match set.s_update {
+            SUpdate::External => INNER_TOL_START.max(set.tolerance),
+            SUpdate::Internal => 0.0,
+        };
+        Self {
+            mode: set.s_update,
+            tolerance: set.tolerance,
+            inner_tol,
+        }
+    }
+
+    /// After an iteration that did not end the loop: every time (internal), or once the
+    /// convex problem with `s` fixed is solved to the inner tolerance (external).
+    fn update(&mut self, sp: &mut dyn Splitting, w: &Work, rho: f64, r: &Residuals) {
+        match self.mode {
+            SUpdate::Internal => sp.update_s(&w.ax, &w.y),
+            SUpdate::External => {
+                let scale = r.xy_scale.max(norm2(sp.c())).max(TINY_SCALE);
+                if r.primal <= self.inner_tol * scale
+                    && r.dual <= self.inner_tol * rho * sp.norm_at(&w.zeta).max(TINY_SCALE)
+                {
+                    sp.update_s(&w.ax, &w.y);
+                    self.inner_tol =
+                        (self.inner_tol * INNER_TOL_SHRINK).max(INNER_TOL_FLOOR * self.tolerance);
+                }
+            }
+        }
+    }
+}
+
+/// The rule's next penalty (unclamped) from the `k`-th iteration's quantities.
+fn next_rho(
+    rule: &mut RhoAdapter,
+    sp: &mut dyn Splitting,
+    w: &Work,
+    k: usize,
+    rho: f64,
+    r: &Residuals,
+) -> f64 {
+    let dual_scale = if rule.needs_dual_scale() {
+        sp.norm_at(&w.zeta)
+    } else {
+        0.0
+    };
+    rule.next_rho(&IterationView {
+        k,
+        rho,
+        primal: r.primal,
+        dual: r.dual,
+        primal_scale: r.xy_scale.max(norm2(sp.c())),
+        dual_scale,
+        ax: &w.ax,
+        y: &w.y,
+        zeta: &w.zeta,
+        zeta_in: &w.z_in,
+        y_in: &w.y_in,
+        c: sp.c(),
+    })
 }

@@ -12,15 +12,19 @@
 //! zeta+ = zeta + A x+ - c - y+
 //! ```
 
+mod accelerator;
 mod anderson;
+mod best_iterate;
 mod engine;
+mod handover;
 mod rho_rule;
 mod variant;
 
 /// Euclidean norm, for plug-ins computing their residuals and scales.
 pub use crate::csc::norm2;
 pub use anderson::Anderson;
-pub use engine::{run, EngineOutcome, EngineSettings, EngineState, Handover};
+pub use engine::{run, EngineOutcome, EngineSettings, EngineState};
+pub use handover::Handover;
 pub use rho_rule::RhoRule;
 pub use variant::{Relaxation, Variant, VARIANT_NAMES};
 

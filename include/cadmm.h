@@ -115,7 +115,7 @@ typedef int32_t cadmm_status;
  * fields that fit in `struct_size` bytes, so a program built against an older, shorter
  * version of this struct keeps working when fields are appended. `struct_size` must cover
  * at least the fields up to `solve_seconds` (`offsetof(cadmm_stats, anderson_accepted)`).
- * Before the first solve, `status` is `CADMM_STATUS_MAX_ITERATIONS`, `iterations` 0 and
+ * Before the first solve, `status` is `CADMM_STATUS_UNSOLVED`, `iterations` 0 and
  * the residuals infinite, while `rho`, `refactorizations` and `setup_seconds` describe the
  * setup.
  */

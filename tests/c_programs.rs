@@ -1,5 +1,6 @@
 //! Builds and runs the plain C test programs of `c_tests/` (`test_api_errors.c`,
-//! `test_analytic.c`, `test_joints.c`, `test_islands.c`, `test_random.c`) against the cadmm shared library that cargo built for this test run,
+//! `test_analytic.c`, `test_joints.c`, `test_islands.c`, `test_random.c`,
+//! `test_update_settings.c`) against the cadmm shared library that cargo built for this test run,
 //! so `cargo test` exercises the C API too (CMake/CTest runs the full C/C++ suite).
 //!
 //! The programs are compiled with the `cc` crate (`-Wall -Wextra -Werror`, C11) into
@@ -201,4 +202,9 @@ fn c_test_islands() {
 #[test]
 fn c_test_random() {
     run("test_random");
+}
+
+#[test]
+fn c_test_update_settings() {
+    run("test_update_settings");
 }

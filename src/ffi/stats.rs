@@ -10,7 +10,7 @@ use std::mem::{offset_of, size_of};
 /// fields that fit in `struct_size` bytes, so a program built against an older, shorter
 /// version of this struct keeps working when fields are appended. `struct_size` must cover
 /// at least the fields up to `solve_seconds` (`offsetof(cadmm_stats, anderson_accepted)`).
-/// Before the first solve, `status` is `CADMM_STATUS_MAX_ITERATIONS`, `iterations` 0 and
+/// Before the first solve, `status` is `CADMM_STATUS_UNSOLVED`, `iterations` 0 and
 /// the residuals infinite, while `rho`, `refactorizations` and `setup_seconds` describe the
 /// setup.
 #[repr(C)]

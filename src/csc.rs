@@ -20,6 +20,117 @@ pub struct CscMatrix {
 /// Marks an entry without a mirror in [`CscMatrix::mirror_map`].
 const NO_MIRROR: usize = usize::MAX;
 
+/// A stored entry while its column is sorted: (row, value, position in the input arrays).
+type Entry = (usize, f64, usize);
+
+/// Checks the column pointers against `ncols` and the lengths of the row index and value
+/// arrays; returns the number of stored entries.
+fn check_pointers(
+    field: &'static str,
+    ncols: usize,
+    colptr: &[usize],
+    n_rowind: usize,
+    n_values: usize,
+) -> Result<usize, Error> {
+    let bad = |reason: String| Error::InvalidCsc { field, reason };
+    if colptr.len() != ncols + 1 {
+        return Err(bad(format!(
+            "column pointer array has {} entries, expected ncols + 1 = {}",
+            colptr.len(),
+            ncols + 1
+        )));
+    }
+    if colptr[0] != 0 {
+        return Err(bad(format!("colptr[0] = {}, expected 0", colptr[0])));
+    }
+    for j in 0..ncols {
+        if colptr[j + 1] < colptr[j] {
+            return Err(bad(format!("column pointers decrease at column {j}")));
+        }
+    }
+    let nnz = colptr[ncols];
+    if n_rowind != nnz || n_values != nnz {
+        return Err(bad(format!(
+            "colptr[ncols] = {nnz} but {n_rowind} row indices and {n_values} values were given"
+        )));
+    }
+    Ok(nnz)
+}
+
+/// Fills `order` with the entries `range` of column `j`, sorted by row, after checking
+/// each row index against `nrows` and each value for finiteness (in storage order, so
+/// the first bad entry is the one reported).
+fn sorted_column(
+    field: &'static str,
+    nrows: usize,
+    j: usize,
+    range: std::ops::Range<usize>,
+    rowind: &[usize],
+    values: &[f64],
+    order: &mut Vec<Entry>,
+) -> Result<(), Error> {
+    order.clear();
+    for k in range {
+        if rowind[k] >= nrows {
+            return Err(Error::InvalidCsc {
+                field,
+                reason: format!(
+                    "row index {} at entry {k} (column {j}) is out of range (nrows = {nrows})",
+                    rowind[k]
+                ),
+            });
+        }
+        if !values[k].is_finite() {
+            return Err(Error::InvalidValue {
+                field,
+                index: k,
+                reason: "not finite",
+            });
+        }
+        order.push((rowind[k], values[k], k));
+    }
+    order.sort_by_key(|e| e.0);
+    Ok(())
+}
+
+/// Notes where the sorted entries of a column starting at `start` came from, when sorting
+/// moved any (the permutation is made, as the identity, on the first such column).
+fn record_input_order(
+    order: &[Entry],
+    start: usize,
+    nnz: usize,
+    input_order: &mut Option<Vec<usize>>,
+) {
+    if order.iter().enumerate().any(|(k, e)| e.2 != start + k) {
+        let perm = input_order.get_or_insert_with(|| (0..nnz).collect());
+        for (k, e) in order.iter().enumerate() {
+            perm[start + k] = e.2;
+        }
+    }
+}
+
+/// Fails on two entries of the same row in the sorted column `j` starting at `start`.
+fn check_duplicates(
+    field: &'static str,
+    j: usize,
+    start: usize,
+    order: &[Entry],
+) -> Result<(), Error> {
+    for (k, w) in order.windows(2).enumerate() {
+        if w[0].0 == w[1].0 {
+            return Err(Error::InvalidCsc {
+                field,
+                reason: format!(
+                    "duplicate entry at row {} in column {j} (entry {})",
+                    w[0].0,
+                    start + k + 1
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 impl CscMatrix {
     /// Builds and validates a matrix. `field` names it in errors (`"M"`, `"H"`...).
     ///
@@ -34,69 +145,17 @@ impl CscMatrix {
         rowind: Vec<usize>,
         values: Vec<f64>,
     ) -> Result<Self, Error> {
-        let bad = |reason: String| Error::InvalidCsc { field, reason };
-        if colptr.len() != ncols + 1 {
-            return Err(bad(format!(
-                "column pointer array has {} entries, expected ncols + 1 = {}",
-                colptr.len(),
-                ncols + 1
-            )));
-        }
-        if colptr[0] != 0 {
-            return Err(bad(format!("colptr[0] = {}, expected 0", colptr[0])));
-        }
-        for j in 0..ncols {
-            if colptr[j + 1] < colptr[j] {
-                return Err(bad(format!("column pointers decrease at column {j}")));
-            }
-        }
-        let nnz = colptr[ncols];
-        if rowind.len() != nnz || values.len() != nnz {
-            return Err(bad(format!(
-                "colptr[ncols] = {nnz} but {} row indices and {} values were given",
-                rowind.len(),
-                values.len()
-            )));
-        }
+        let nnz = check_pointers(field, ncols, &colptr, rowind.len(), values.len())?;
         let mut rowind = rowind;
         let mut values = values;
         let mut input_order: Option<Vec<usize>> = None;
-        let mut order: Vec<(usize, f64, usize)> = Vec::new();
+        let mut order: Vec<Entry> = Vec::new();
+        // Column by column: the error reported is the first one met in storage order.
         for j in 0..ncols {
             let (start, end) = (colptr[j], colptr[j + 1]);
-            order.clear();
-            for k in start..end {
-                if rowind[k] >= nrows {
-                    return Err(bad(format!(
-                        "row index {} at entry {k} (column {j}) is out of range (nrows = {nrows})",
-                        rowind[k]
-                    )));
-                }
-                if !values[k].is_finite() {
-                    return Err(Error::InvalidValue {
-                        field,
-                        index: k,
-                        reason: "not finite",
-                    });
-                }
-                order.push((rowind[k], values[k], k));
-            }
-            order.sort_by_key(|e| e.0);
-            if order.iter().enumerate().any(|(k, e)| e.2 != start + k) {
-                let perm = input_order.get_or_insert_with(|| (0..nnz).collect());
-                for (k, e) in order.iter().enumerate() {
-                    perm[start + k] = e.2;
-                }
-            }
-            for (k, w) in order.windows(2).enumerate() {
-                if w[0].0 == w[1].0 {
-                    return Err(bad(format!(
-                        "duplicate entry at row {} in column {j} (entry {})",
-                        w[0].0,
-                        start + k + 1
-                    )));
-                }
-            }
+            sorted_column(field, nrows, j, start..end, &rowind, &values, &mut order)?;
+            record_input_order(&order, start, nnz, &mut input_order);
+            check_duplicates(field, j, start, &order)?;
             for (k, (i, v, _)) in order.iter().enumerate() {
                 rowind[start + k] = *i;
                 values[start + k] = *v;

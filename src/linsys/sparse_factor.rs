@@ -142,11 +142,45 @@ impl SparseFactor {
         // The values that `mul_vec` reads follow rho whether or not the factor is cached
         // (joint refinement multiplies by them).
         self.matrix.values_at(rho, &mut self.values);
-        if let Some(pos) = self.cache.iter().position(|(r, _)| *r == rho) {
-            let entry = self.cache.remove(pos);
-            self.cache.push(entry);
+        if self.reuse_cached(rho) {
             return Ok(());
         }
+        let recycled = self.recycled_storage();
+        let numeric = self.factorize_numeric(recycled)?;
+        self.refactorizations += 1;
+        self.cache.push((rho, numeric));
+        if self.kind == FactorKind::Lu {
+            self.reject_singular_lu()?;
+        }
+        Ok(())
+    }
+
+    /// Makes the cached factor of `rho`, if any, the current (most recent) one.
+    fn reuse_cached(&mut self, rho: f64) -> bool {
+        match self.cache.iter().position(|(r, _)| *r == rho) {
+            Some(pos) => {
+                let entry = self.cache.remove(pos);
+                self.cache.push(entry);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Storage for the next numeric factor.
+    fn recycled_storage(&mut self) -> Option<Numeric> {
+        // Storage from the pool made at construction, or that of the oldest cached factor:
+        // a change of rho inside the iteration does not allocate factor storage.
+        match self.spare.pop() {
+            Some(n) => Some(n),
+            None if self.cache.len() == CACHE => Some(self.cache.remove(0).1),
+            None => None,
+        }
+    }
+
+    /// Numeric factorization of the current values, into `recycled` when it has the
+    /// right kind.
+    fn factorize_numeric(&mut self, recycled: Option<Numeric>) -> Result<Numeric, Error> {
         let n = self.matrix.n;
         let a = SparseColMatRef::new(
             SymbolicSparseColMatRef::new_checked(
@@ -159,80 +193,32 @@ impl SparseFactor {
             &self.values,
         );
         let stack = MemStack::new(&mut self.mem);
-        // Storage from the pool made at construction, or that of the oldest cached factor:
-        // a change of rho inside the iteration does not allocate factor storage.
-        let recycled = match self.spare.pop() {
-            Some(n) => Some(n),
-            None if self.cache.len() == CACHE => Some(self.cache.remove(0).1),
-            None => None,
-        };
-        let numeric = match (&self.symbolic, self.kind) {
+        match (&self.symbolic, self.kind) {
             (Symbolic::Cholesky(s), FactorKind::Cholesky) => {
-                let mut l = match recycled {
-                    Some(Numeric::Cholesky(v)) => v,
-                    _ => vec![0.0; s.len_val()],
-                };
-                s.factorize_numeric_llt(
-                    &mut l,
-                    a,
-                    Side::Upper,
-                    Default::default(),
-                    Par::Seq,
-                    stack,
-                    Default::default(),
-                )
-                .map_err(|_| Error::NotPositiveDefinite { field: self.name })?;
-                Numeric::Cholesky(l)
+                factorize_llt(s, a, stack, recycled, self.name)
             }
             (Symbolic::Cholesky(s), FactorKind::QuasiDefinite { .. }) => {
-                let mut l = match recycled {
-                    Some(Numeric::Cholesky(v)) => v,
-                    _ => vec![0.0; s.len_val()],
-                };
-                let reg = LdltRegularization {
-                    dynamic_regularization_signs: Some(&self.signs),
-                    dynamic_regularization_delta: 1e-10,
-                    dynamic_regularization_epsilon: 1e-13,
-                };
-                s.factorize_numeric_ldlt(
-                    &mut l,
-                    a,
-                    Side::Upper,
-                    reg,
-                    Par::Seq,
-                    stack,
-                    Default::default(),
-                )
-                .map_err(|_| Error::NotPositiveDefinite { field: self.name })?;
-                Numeric::Cholesky(l)
+                factorize_ldlt(s, a, stack, recycled, &self.signs, self.name)
             }
-            (Symbolic::Lu(s), _) => {
-                let mut lu = match recycled {
-                    Some(Numeric::Lu(v)) => v,
-                    _ => Box::new(NumericLu::new()),
-                };
-                s.factorize_numeric_lu(&mut lu, a, Par::Seq, stack, Default::default())
-                    .map_err(|_| Error::Singular { field: self.name })?;
-                Numeric::Lu(lu)
-            }
+            (Symbolic::Lu(s), _) => factorize_lu(s, a, stack, recycled, self.name),
             _ => unreachable!("symbolic kind matches factor kind by construction"),
-        };
-        self.refactorizations += 1;
-        self.cache.push((rho, numeric));
-        if self.kind == FactorKind::Lu {
-            // Partial pivoting does not report an exactly singular matrix: a zero pivot
-            // shows up as a non-finite solution, so probe once per factorization.
-            let mut probe = std::mem::take(&mut self.probe);
-            probe.fill(1.0);
-            self.solve_in_place(&mut probe);
-            let singular = !probe.iter().all(|v| v.is_finite());
-            self.probe = probe;
-            if singular {
-                if let Some((_, n)) = self.cache.pop() {
-                    self.spare.push(n);
-                }
-                return Err(Error::Singular { field: self.name });
+        }
+    }
+
+    /// Drops the current factor (back to the pool) and fails when it is singular.
+    fn reject_singular_lu(&mut self) -> Result<(), Error> {
+        // Partial pivoting does not report an exactly singular matrix: a zero pivot
+        // shows up as a non-finite solution, so probe once per factorization.
+        let mut probe = std::mem::take(&mut self.probe);
+        probe.fill(1.0);
+        self.solve_in_place(&mut probe);
+        let singular = !probe.iter().all(|v| v.is_finite());
+        self.probe = probe;
+        if singular {
+            if let Some((_, n)) = self.cache.pop() {
+                self.spare.push(n);
             }
+            return Err(Error::Singular { field: self.name });
         }
         Ok(())
     }
@@ -266,4 +252,81 @@ impl SparseFactor {
         self.matrix
             .mul_vec(&self.values, self.kind != FactorKind::Lu, x, y);
     }
+}
+
+/// Reuses `recycled` as factor storage when it is a Cholesky one, else allocates.
+fn cholesky_storage(s: &SymbolicCholesky<usize>, recycled: Option<Numeric>) -> Vec<f64> {
+    match recycled {
+        Some(Numeric::Cholesky(v)) => v,
+        _ => vec![0.0; s.len_val()],
+    }
+}
+
+/// `L L^T` of a positive definite `a`.
+fn factorize_llt(
+    s: &SymbolicCholesky<usize>,
+    a: SparseColMatRef<'_, usize, f64>,
+    stack: &mut MemStack,
+    recycled: Option<Numeric>,
+    name: &'static str,
+) -> Result<Numeric, Error> {
+    let mut l = cholesky_storage(s, recycled);
+    s.factorize_numeric_llt(
+        &mut l,
+        a,
+        Side::Upper,
+        Default::default(),
+        Par::Seq,
+        stack,
+        Default::default(),
+    )
+    .map_err(|_| Error::NotPositiveDefinite { field: name })?;
+    Ok(Numeric::Cholesky(l))
+}
+
+/// `L D L^T` of a quasi-definite `a`; `signs` are the expected pivot signs, which the
+/// dynamic regularization enforces.
+fn factorize_ldlt(
+    s: &SymbolicCholesky<usize>,
+    a: SparseColMatRef<'_, usize, f64>,
+    stack: &mut MemStack,
+    recycled: Option<Numeric>,
+    signs: &[i8],
+    name: &'static str,
+) -> Result<Numeric, Error> {
+    let mut l = cholesky_storage(s, recycled);
+    let reg = LdltRegularization {
+        dynamic_regularization_signs: Some(signs),
+        dynamic_regularization_delta: 1e-10,
+        dynamic_regularization_epsilon: 1e-13,
+    };
+    s.factorize_numeric_ldlt(
+        &mut l,
+        a,
+        Side::Upper,
+        reg,
+        Par::Seq,
+        stack,
+        Default::default(),
+    )
+    .map_err(|_| Error::NotPositiveDefinite { field: name })?;
+    Ok(Numeric::Cholesky(l))
+}
+
+/// `L U` with partial pivoting of a general `a` (an exactly singular one is only caught
+/// by the probe in [`SparseFactor::set_rho`]).
+fn factorize_lu(
+    s: &SymbolicLu<usize>,
+    a: SparseColMatRef<'_, usize, f64>,
+    stack: &mut MemStack,
+    recycled: Option<Numeric>,
+    name: &'static str,
+) -> Result<Numeric, Error> {
+    let mut lu = match recycled {
+        Some(Numeric::Lu(v)) => v,
+        _ => Box::new(NumericLu::new()),
+    };
+    s.factorize_numeric_lu(&mut lu, a, Par::Seq, stack, Default::default())
+        .map_err(|_| Error::Singular { field: name })?;
+    Ok(Numeric::Lu(lu))
 }

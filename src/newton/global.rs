@@ -91,18 +91,35 @@ fn entries(a: &CscMatrix) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
     (0..a.ncols()).flat_map(move |c| a.col(c).map(move |(i, v)| (i, c, v)))
 }
 
-impl GlobalNewton {
-    /// Builds the Newton pattern and its symbolic LU; `rho_i = 1 / ||W_ii||_F` with
-    /// `W_ii` approximated by `H_i^T diag(M)^-1 H_i` (exact for a diagonal M, and W is
-    /// never formed).
-    pub fn new(prob: &GlobalProblem) -> Result<Self, Error> {
-        let n = prob.n();
-        let nc = prob.n_contacts();
-        let m = 3 * nc;
-        let empty = CscMatrix::from_triplets("G", n, 0, &[])?;
-        let g = prob.joints.as_ref().map_or(&empty, |j| &j.g);
-        let p = g.ncols();
-        let (h, mm) = (&prob.h, &prob.m);
+/// The blocks of the Newton matrix: `n` velocities, `p` joint multipliers and `m = 3 nc`
+/// contact impulses, with M, G (`n x p`) and H (`n x m`).
+#[derive(Clone, Copy)]
+struct Blocks<'a> {
+    n: usize,
+    p: usize,
+    m: usize,
+    mm: &'a CscMatrix,
+    g: &'a CscMatrix,
+    h: &'a CscMatrix,
+}
+
+/// Where the entries of each block land in the values of the Newton matrix (see the
+/// fields `*_dest` of [`GlobalNewton`]).
+struct Destinations {
+    m: Vec<usize>,
+    g: Vec<usize>,
+    gt: Vec<usize>,
+    h: Vec<usize>,
+    ah: Vec<usize>,
+    diag: Vec<usize>,
+    lam: Vec<usize>,
+}
+
+impl Blocks<'_> {
+    /// Pattern of the Newton matrix (module documentation), with the rows of `A H^T` and
+    /// of `B + alpha D A` as whole 3 x 3 contact blocks since A and B are dense per contact.
+    fn pattern(&self) -> Pattern {
+        let Self { n, p, m, mm, g, h } = *self;
         let (ov, or) = (n + p, n + p); // offsets of the contact rows / columns
         let gt = g.transpose();
         let mut cols: Vec<Vec<usize>> = vec![Vec::new(); n + p + m];
@@ -126,21 +143,66 @@ impl GlobalNewton {
             let i = c / 3;
             cols[or + c].extend([ov + 3 * i, ov + 3 * i + 1, ov + 3 * i + 2]);
         }
-        let pat = Pattern::from_columns(n + p + m, cols);
-        let m_dest = entries(mm).map(|(i, j, _)| pat.pos(i, j)).collect();
-        let g_dest = entries(g).map(|(j, k, _)| pat.pos(j, n + k)).collect();
-        let gt_dest = entries(g).map(|(j, k, _)| pat.pos(n + k, j)).collect();
-        let h_dest = entries(h).map(|(j, c, _)| pat.pos(j, or + c)).collect();
-        let ah_dest = entries(h)
-            .map(|(j, c, _)| pat.pos(ov + 3 * (c / 3), j))
-            .collect();
-        let diag_dest = (0..m).map(|c| pat.pos(ov + 3 * (c / 3), or + c)).collect();
-        let lam_dest = (0..p).map(|k| pat.pos(n + k, n + k)).collect();
+        Pattern::from_columns(n + p + m, cols)
+    }
 
+    /// Positions in `pat` of every block entry, so that each Newton step fills the matrix
+    /// without a search.
+    fn destinations(&self, pat: &Pattern) -> Destinations {
+        let Self { n, p, m, mm, g, h } = *self;
+        let (ov, or) = (n + p, n + p); // offsets of the contact rows / columns
+        Destinations {
+            m: entries(mm).map(|(i, j, _)| pat.pos(i, j)).collect(),
+            g: entries(g).map(|(j, k, _)| pat.pos(j, n + k)).collect(),
+            gt: entries(g).map(|(j, k, _)| pat.pos(n + k, j)).collect(),
+            h: entries(h).map(|(j, c, _)| pat.pos(j, or + c)).collect(),
+            ah: entries(h)
+                .map(|(j, c, _)| pat.pos(ov + 3 * (c / 3), j))
+                .collect(),
+            diag: (0..m).map(|c| pat.pos(ov + 3 * (c / 3), or + c)).collect(),
+            lam: (0..p).map(|k| pat.pos(n + k, n + k)).collect(),
+        }
+    }
+}
+
+impl GlobalNewton {
+    /// Builds the Newton pattern and its symbolic LU; `rho_i = 1 / ||W_ii||_F` with
+    /// `W_ii` approximated by `H_i^T diag(M)^-1 H_i` (exact for a diagonal M, and W is
+    /// never formed).
+    pub fn new(prob: &GlobalProblem) -> Result<Self, Error> {
+        let n = prob.n();
+        let nc = prob.n_contacts();
+        let empty = CscMatrix::from_triplets("G", n, 0, &[])?;
+        let g = prob.joints.as_ref().map_or(&empty, |j| &j.g);
+        let blocks = Blocks {
+            n,
+            p: g.ncols(),
+            m: 3 * nc,
+            mm: &prob.m,
+            g,
+            h: &prob.h,
+        };
+        let pat = blocks.pattern();
+        let dest = blocks.destinations(&pat);
         let lu = SparseLu::new("global Newton matrix", pat)?;
+        let mut newton = Self::with_workspace(prob, &blocks, dest, lu);
+        newton.take_values(prob);
+        Ok(newton)
+    }
+
+    /// The solver around its factorization, with every work vector sized (zero) for the
+    /// problem; the values are taken afterwards.
+    fn with_workspace(
+        prob: &GlobalProblem,
+        blocks: &Blocks,
+        dest: Destinations,
+        lu: SparseLu,
+    ) -> Self {
+        let Blocks { n, p, m, mm, g, h } = *blocks;
+        let nc = prob.n_contacts();
         let z3 = vec![[[0.0; 3]; 3]; nc];
         let nz = n + p + m;
-        let mut newton = Self {
+        Self {
             n,
             p,
             nc,
@@ -148,13 +210,13 @@ impl GlobalNewton {
             rho: vec![0.0; nc],
             joint_scale: vec![0.0; p],
             minv: vec![0.0; n],
-            m_dest,
-            g_dest,
-            gt_dest,
-            h_dest,
-            ah_dest,
-            diag_dest,
-            lam_dest,
+            m_dest: dest.m,
+            g_dest: dest.g,
+            gt_dest: dest.gt,
+            h_dest: dest.h,
+            ah_dest: dest.ah,
+            diag_dest: dest.diag,
+            lam_dest: dest.lam,
             lu,
             rv: vec![0.0; n],
             rl: vec![0.0; p],
@@ -175,9 +237,7 @@ impl GlobalNewton {
             z: vec![0.0; nz],
             measure: MeasureWork::global(prob),
             u_free: vec![0.0; m],
-        };
-        newton.take_values(prob);
-        Ok(newton)
+        }
     }
 
     /// Recomputes the scalings from the values of `prob` (same patterns as at

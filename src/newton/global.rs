@@ -240,14 +240,14 @@ impl GlobalNewton {
         }
     }
 
-    /// Recomputes the scalings from the values of `prob` (same patterns as at
-    /// construction): `rho_i = 1 / ||W_ii||_F` with `W_ii` approximated by
-    /// `H_i^T diag(M)^-1 H_i`, and the joint scalings. No allocation.
     /// Floors of the error measure (an island's share of a scene's measure).
     pub fn set_measure_floors(&mut self, floors: crate::measure::Floors) {
         self.measure.floors = floors;
     }
 
+    /// Recomputes the scalings from the values of `prob` (same patterns as at
+    /// construction): `rho_i = 1 / ||W_ii||_F` with `W_ii` approximated by
+    /// `H_i^T diag(M)^-1 H_i`, and the joint scalings. No allocation.
     pub fn take_values(&mut self, prob: &GlobalProblem) {
         // diag(M)^-1 (a non-positive diagonal entry is left out).
         self.minv.fill(0.0);

@@ -25,13 +25,12 @@
 
 use super::sparse::{Pattern, SparseLu};
 use super::{
-    ac_branch, eval_all, impulse_scale, iterate, rho_from_block, Branch, Mat3, NewtonOutcome,
+    ac_branch, backtrack, impulse_scale, iterate, rho_from_block, AcPoint, Branch, NewtonOutcome,
     NewtonSystem,
 };
 use crate::csc::CscMatrix;
 use crate::measure::{global_error_with, MeasureWork};
 use crate::problem::GlobalProblem;
-use crate::tuning::NEWTON;
 use crate::types::Error;
 use std::time::Instant;
 
@@ -60,20 +59,15 @@ pub struct GlobalNewton {
     // Residual pieces at the current point and their trial counterparts.
     rv: Vec<f64>,
     rl: Vec<f64>,
-    u: Vec<f64>,
-    f: Vec<f64>,
-    a: Vec<Mat3>,
-    b: Vec<Mat3>,
+    /// The Alart-Curnier function at the current point and at the trial point.
+    point: AcPoint,
+    trial_point: AcPoint,
     /// Newton direction `(dv, dlambda, dr)` and its images `J_v d`, `G^T dv`, `H^T dv`.
     d: Vec<f64>,
     jd_v: Vec<f64>,
     gt_dv: Vec<f64>,
     ht_dv: Vec<f64>,
     z_trial: Vec<f64>,
-    u_trial: Vec<f64>,
-    f_trial: Vec<f64>,
-    a_trial: Vec<Mat3>,
-    b_trial: Vec<Mat3>,
     best: Vec<f64>,
     /// The current point `(v, lambda, r)`, taken out of `self` during a solve.
     z: Vec<f64>,
@@ -200,7 +194,6 @@ impl GlobalNewton {
     ) -> Self {
         let Blocks { n, p, m, mm, g, h } = *blocks;
         let nc = prob.n_contacts();
-        let z3 = vec![[[0.0; 3]; 3]; nc];
         let nz = n + p + m;
         Self {
             n,
@@ -220,19 +213,13 @@ impl GlobalNewton {
             lu,
             rv: vec![0.0; n],
             rl: vec![0.0; p],
-            u: vec![0.0; m],
-            f: vec![0.0; m],
-            a: z3.clone(),
-            b: z3.clone(),
+            point: AcPoint::new(nc),
+            trial_point: AcPoint::new(nc),
             d: vec![0.0; nz],
             jd_v: vec![0.0; n],
             gt_dv: vec![0.0; p],
             ht_dv: vec![0.0; m],
             z_trial: vec![0.0; nz],
-            u_trial: vec![0.0; m],
-            f_trial: vec![0.0; m],
-            a_trial: z3.clone(),
-            b_trial: z3,
             best: vec![0.0; nz],
             z: vec![0.0; nz],
             measure: MeasureWork::global(prob),
@@ -389,18 +376,9 @@ impl NewtonSystem for GlobalNewton {
             }
         }
         let merit = crate::csc::dot(&self.rv, &self.rv) + crate::csc::dot(&self.rl, &self.rl);
-        self.u.copy_from_slice(&prob.w);
-        prob.h.mul_t_vec(1.0, v, 1.0, &mut self.u);
-        0.5 * merit
-            + eval_all(
-                r,
-                &self.u,
-                &prob.mu,
-                &self.rho,
-                &mut self.f,
-                &mut self.a,
-                &mut self.b,
-            )
+        self.point.u.copy_from_slice(&prob.w);
+        prob.h.mul_t_vec(1.0, v, 1.0, &mut self.point.u);
+        0.5 * merit + self.point.evaluate(r, &prob.mu, &self.rho)
     }
 
     /// Assembles and factorizes the Newton matrix, solves for the direction; false when
@@ -424,14 +402,15 @@ impl NewtonSystem for GlobalNewton {
         for (k, (_, c, v)) in entries(&prob.h).enumerate() {
             vals[self.h_dest[k]] = -v;
             // A H^T: entry H[j, c] feeds rows 3i..3i+3 of column j through column c % 3 of A_i.
-            let (ai, b, base) = (&self.a[c / 3], c % 3, self.ah_dest[k]);
+            let (ai, b, base) = (&self.point.a[c / 3], c % 3, self.ah_dest[k]);
             for row in 0..3 {
                 vals[base + row] += ai[row][b] * v;
             }
         }
         for c in 0..3 * self.nc {
             let i = c / 3;
-            let (ai, bi, col, base) = (&self.a[i], &self.b[i], c % 3, self.diag_dest[c]);
+            let (ai, bi, col, base) =
+                (&self.point.a[i], &self.point.b[i], c % 3, self.diag_dest[c]);
             let reg = alpha / self.rho[i];
             for row in 0..3 {
                 vals[base + row] += bi[row][col] + reg * ai[row][col];
@@ -447,7 +426,7 @@ impl NewtonSystem for GlobalNewton {
         for k in 0..p {
             d[n + k] = -self.rl[k];
         }
-        for (k, f) in self.f.iter().enumerate() {
+        for (k, f) in self.point.f.iter().enumerate() {
             d[n + p + k] = -f;
         }
         if !self.lu.solve_in_place(d) {
@@ -468,40 +447,37 @@ impl NewtonSystem for GlobalNewton {
     /// Backtracking on `||R||`; on success the trial point is in `z_trial`.
     fn line_search(&mut self, prob: &GlobalProblem, z: &[f64], merit: f64) -> Option<f64> {
         let (n, p) = (self.n, self.p);
-        let mut t = 1.0;
-        while t >= NEWTON.min_step {
+        let Self {
+            z_trial,
+            d,
+            rv,
+            jd_v,
+            rl,
+            gt_dv,
+            point,
+            trial_point,
+            ht_dv,
+            rho,
+            ..
+        } = self;
+        backtrack(merit, |t| {
             for k in 0..z.len() {
-                self.z_trial[k] = z[k] + t * self.d[k];
+                z_trial[k] = z[k] + t * d[k];
             }
             let mut lin = 0.0;
             for k in 0..n {
-                let x = self.rv[k] + t * self.jd_v[k];
+                let x = rv[k] + t * jd_v[k];
                 lin += x * x;
             }
             for k in 0..p {
-                let x = self.rl[k] + t * self.gt_dv[k];
+                let x = rl[k] + t * gt_dv[k];
                 lin += x * x;
             }
-            for k in 0..self.u.len() {
-                self.u_trial[k] = self.u[k] + t * self.ht_dv[k];
+            for k in 0..point.u.len() {
+                trial_point.u[k] = point.u[k] + t * ht_dv[k];
             }
-            let trial = 0.5 * lin
-                + eval_all(
-                    &self.z_trial[n + p..],
-                    &self.u_trial,
-                    &prob.mu,
-                    &self.rho,
-                    &mut self.f_trial,
-                    &mut self.a_trial,
-                    &mut self.b_trial,
-                );
-            let decrease = 1.0 - NEWTON.sigma * t;
-            if trial <= decrease * decrease * merit {
-                return Some(t);
-            }
-            t *= 0.5;
-        }
-        None
+            0.5 * lin + trial_point.evaluate(&z_trial[n + p..], &prob.mu, rho)
+        })
     }
 
     /// Zeroes the impulses of the contacts found open at the converged point (round-off
@@ -514,7 +490,11 @@ impl NewtonSystem for GlobalNewton {
         for i in 0..self.nc {
             let k = off + 3 * i;
             let ri = [z[k], z[k + 1], z[k + 2]];
-            let ui = [self.u[3 * i], self.u[3 * i + 1], self.u[3 * i + 2]];
+            let ui = [
+                self.point.u[3 * i],
+                self.point.u[3 * i + 1],
+                self.point.u[3 * i + 2],
+            ];
             if ac_branch(ri, ui, prob.mu[i], self.rho[i], self.rho[i]) == Branch::Open
                 && ri.iter().any(|&x| x != 0.0)
             {

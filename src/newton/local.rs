@@ -29,11 +29,13 @@
 //! tests fail from a cold start; with this choice they all converge, as at unit scale).
 
 use super::sparse::{Pattern, SparseLu};
-use super::{eval_all, impulse_scale, iterate, rho_from_block, Mat3, NewtonOutcome, NewtonSystem};
+use super::{
+    backtrack, impulse_scale, iterate, rho_from_block, AcPoint, Mat3, NewtonOutcome, NewtonSystem,
+};
 use crate::csc::CscMatrix;
 use crate::measure::{local_error_with, MeasureWork};
 use crate::problem::LocalProblem;
-use crate::tuning::{NEWTON, SMALL_ALPHA_CAP};
+use crate::tuning::SMALL_ALPHA_CAP;
 use crate::types::Error;
 use std::time::Instant;
 
@@ -49,17 +51,12 @@ pub struct LocalNewton {
     /// Per column `c`: position of row `3 (c / 3)` (diagonal block) in column `c`.
     diag_dest: Vec<usize>,
     lu: SparseLu,
-    u: Vec<f64>,
-    f: Vec<f64>,
-    a: Vec<Mat3>,
-    b: Vec<Mat3>,
+    /// The Alart-Curnier function at the current point and at the trial point.
+    point: AcPoint,
+    trial_point: AcPoint,
     d: Vec<f64>,
     wd: Vec<f64>,
     r_trial: Vec<f64>,
-    u_trial: Vec<f64>,
-    f_trial: Vec<f64>,
-    a_trial: Vec<Mat3>,
-    b_trial: Vec<Mat3>,
     best: Vec<f64>,
     measure: MeasureWork,
 }
@@ -97,7 +94,6 @@ impl LocalNewton {
         let diag_dest = (0..m).map(|c| pattern.pos(3 * (c / 3), c)).collect();
         let rho = (0..nc).map(|i| rho_from_block(&diag_block(w, i))).collect();
         let lu = SparseLu::new("Newton matrix A (W + alpha D) + B", pattern)?;
-        let z3 = vec![[[0.0; 3]; 3]; nc];
         Ok(Self {
             nc,
             w_colptr: w.colptr().to_vec(),
@@ -106,17 +102,11 @@ impl LocalNewton {
             w_dest,
             diag_dest,
             lu,
-            u: vec![0.0; m],
-            f: vec![0.0; m],
-            a: z3.clone(),
-            b: z3.clone(),
+            point: AcPoint::new(nc),
+            trial_point: AcPoint::new(nc),
             d: vec![0.0; m],
             wd: vec![0.0; m],
             r_trial: vec![0.0; m],
-            u_trial: vec![0.0; m],
-            f_trial: vec![0.0; m],
-            a_trial: z3.clone(),
-            b_trial: z3,
             best: vec![0.0; m],
             measure: MeasureWork::local(p),
         })
@@ -270,17 +260,9 @@ impl NewtonSystem for LocalNewton {
 
     /// `u = W r + q` and F, A, B at `r`; returns the merit `0.5 ||F||^2`.
     fn evaluate_at(&mut self, p: &LocalProblem, r: &[f64]) -> f64 {
-        self.u.copy_from_slice(&p.q);
-        p.w.mul_vec(1.0, r, 1.0, &mut self.u);
-        eval_all(
-            r,
-            &self.u,
-            &p.mu,
-            &self.rho,
-            &mut self.f,
-            &mut self.a,
-            &mut self.b,
-        )
+        self.point.u.copy_from_slice(&p.q);
+        p.w.mul_vec(1.0, r, 1.0, &mut self.point.u);
+        self.point.evaluate(r, &p.mu, &self.rho)
     }
 
     /// Assembles `A (W + alpha D) + B`, factorizes, and solves for `d = -J^-1 F` (into
@@ -292,13 +274,14 @@ impl NewtonSystem for LocalNewton {
         for c in 0..colptr.len() - 1 {
             for k in colptr[c]..colptr[c + 1] {
                 let row = self.w_rowind[k];
-                let (ai, bcol, base) = (&self.a[row / 3], row % 3, self.w_dest[k]);
+                let (ai, bcol, base) = (&self.point.a[row / 3], row % 3, self.w_dest[k]);
                 for r in 0..3 {
                     vals[base + r] += ai[r][bcol] * wv[k];
                 }
             }
             let j = c / 3;
-            let (aj, bj, bcol, base) = (&self.a[j], &self.b[j], c % 3, self.diag_dest[c]);
+            let (aj, bj, bcol, base) =
+                (&self.point.a[j], &self.point.b[j], c % 3, self.diag_dest[c]);
             let reg = alpha / self.rho[j];
             for r in 0..3 {
                 vals[base + r] += bj[r][bcol] + reg * aj[r][bcol];
@@ -307,7 +290,7 @@ impl NewtonSystem for LocalNewton {
         if !self.lu.factor() {
             return false;
         }
-        for (d, f) in self.d.iter_mut().zip(&self.f) {
+        for (d, f) in self.d.iter_mut().zip(&self.point.f) {
             *d = -f;
         }
         if !self.lu.solve_in_place(&mut self.d) {
@@ -320,28 +303,22 @@ impl NewtonSystem for LocalNewton {
     /// Backtracking from `t = 1`; on success the trial point is in `r_trial` and the step
     /// length is returned.
     fn line_search(&mut self, p: &LocalProblem, r: &[f64], merit: f64) -> Option<f64> {
-        let mut t = 1.0;
-        while t >= NEWTON.min_step {
+        let Self {
+            r_trial,
+            point,
+            trial_point,
+            d,
+            wd,
+            rho,
+            ..
+        } = self;
+        backtrack(merit, |t| {
             for k in 0..r.len() {
-                self.r_trial[k] = r[k] + t * self.d[k];
-                self.u_trial[k] = self.u[k] + t * self.wd[k];
+                r_trial[k] = r[k] + t * d[k];
+                trial_point.u[k] = point.u[k] + t * wd[k];
             }
-            let trial = eval_all(
-                &self.r_trial,
-                &self.u_trial,
-                &p.mu,
-                &self.rho,
-                &mut self.f_trial,
-                &mut self.a_trial,
-                &mut self.b_trial,
-            );
-            let decrease = 1.0 - NEWTON.sigma * t;
-            if trial <= decrease * decrease * merit {
-                return Some(t);
-            }
-            t *= 0.5;
-        }
-        None
+            trial_point.evaluate(r_trial, &p.mu, rho)
+        })
     }
 
     /// Sets exactly to zero the impulses of the contacts that the converged point finds
@@ -353,7 +330,7 @@ impl NewtonSystem for LocalNewton {
         for i in 0..self.nc {
             let (ri, ui) = (
                 &mut self.r_trial[3 * i..3 * i + 3],
-                &self.u[3 * i..3 * i + 3],
+                &self.point.u[3 * i..3 * i + 3],
             );
             let open = super::ac_branch(
                 [ri[0], ri[1], ri[2]],

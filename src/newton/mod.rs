@@ -13,6 +13,8 @@ mod testing;
 
 pub use alart_curnier::{ac_branch, ac_contact, Branch, Mat3};
 
+#[cfg(doc)]
+use crate::tuning::NewtonTuning;
 use crate::tuning::NEWTON;
 use crate::types::Status;
 use std::time::Instant;
@@ -332,6 +334,50 @@ pub(crate) fn rho_from_block(block: &Mat3) -> f64 {
     } else {
         1.0
     }
+}
+
+/// The Alart-Curnier function at one point, per contact: the local velocities `u`, the
+/// residual `F` and the blocks `A`, `B` of its generalized Jacobian. Both Newton forms keep
+/// one for the current point and one for the line search's trial point.
+pub(crate) struct AcPoint {
+    pub u: Vec<f64>,
+    pub f: Vec<f64>,
+    pub a: Vec<Mat3>,
+    pub b: Vec<Mat3>,
+}
+
+impl AcPoint {
+    /// Zeros for `nc` contacts.
+    pub fn new(nc: usize) -> Self {
+        Self {
+            u: vec![0.0; 3 * nc],
+            f: vec![0.0; 3 * nc],
+            a: vec![[[0.0; 3]; 3]; nc],
+            b: vec![[[0.0; 3]; 3]; nc],
+        }
+    }
+
+    /// `F`, `A`, `B` at impulses `r` and the velocities in `u`; returns `0.5 ||F||^2`.
+    pub fn evaluate(&mut self, r: &[f64], mu: &[f64], rho: &[f64]) -> f64 {
+        eval_all(r, &self.u, mu, rho, &mut self.f, &mut self.a, &mut self.b)
+    }
+}
+
+/// The backtracking line search of both forms: halves the step from `t = 1` until the
+/// merit of the trial point at `t` (computed by `trial_merit`) shows a sufficient decrease
+/// of `||F||` (Armijo, constant [`NewtonTuning::sigma`]); `None` below
+/// [`NewtonTuning::min_step`].
+pub(crate) fn backtrack(merit: f64, mut trial_merit: impl FnMut(f64) -> f64) -> Option<f64> {
+    let mut t = 1.0;
+    while t >= NEWTON.min_step {
+        let trial = trial_merit(t);
+        let decrease = 1.0 - NEWTON.sigma * t;
+        if trial <= decrease * decrease * merit {
+            return Some(t);
+        }
+        t *= 0.5;
+    }
+    None
 }
 
 /// Evaluates the Alart-Curnier function of every contact: fills `f` (length `3 nc`) and

@@ -124,7 +124,7 @@ impl GlobalSplitting {
         self.factor.reassemble(
             &self.assembly,
             base_triplets(&self.p),
-            gram_triplets(&self.p.h, &self.active),
+            gram_triplets(&self.p.h, &self.active, self.m_mirror.is_some()),
         );
         self.reset_shift();
         if let Some(newton) = &mut self.newton {
@@ -190,7 +190,7 @@ fn system_matrix(p: &GlobalProblem, active: &[f64]) -> (ParamMatrix, Assembly, F
     let (matrix, assembly) = ParamMatrix::from_triplets(
         n + np,
         base_triplets(p),
-        gram_triplets(&p.h, active),
+        gram_triplets(&p.h, active, symmetric),
         symmetric,
     );
     let kind = match (symmetric, np) {

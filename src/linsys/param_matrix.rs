@@ -30,6 +30,38 @@ pub struct Assembly {
 /// Position of a triplet that is not stored.
 pub const DROPPED: usize = usize::MAX;
 
+/// The entries ordered by column, then row, equal keys keeping their input order (so
+/// duplicates are summed in the same order as a stable sort would sum them): two stable
+/// counting passes, by row and then by column, in `O(entries + n)`. A comparison sort of
+/// the `H H^T` triplets was most of a new solver's cost on an engine's scene (130 000
+/// triplets for 300 contacts).
+fn sorted_by_column<T: Copy>(
+    all: Vec<(usize, usize, f64, f64, T)>,
+    n: usize,
+) -> Vec<(usize, usize, f64, f64, T)> {
+    /// Positions of `order`'s entries stably sorted by `key`.
+    fn counting_pass(order: &[usize], key: impl Fn(usize) -> usize, n: usize) -> Vec<usize> {
+        let mut start = vec![0usize; n + 1];
+        for &e in order {
+            start[key(e) + 1] += 1;
+        }
+        for k in 0..n {
+            start[k + 1] += start[k];
+        }
+        let mut out = vec![0usize; order.len()];
+        for &e in order {
+            let slot = &mut start[key(e)];
+            out[*slot] = e;
+            *slot += 1;
+        }
+        out
+    }
+    let identity: Vec<usize> = (0..all.len()).collect();
+    let by_row = counting_pass(&identity, |e| all[e].0, n);
+    let by_column = counting_pass(&by_row, |e| all[e].1, n);
+    by_column.into_iter().map(|e| all[e]).collect()
+}
+
 impl ParamMatrix {
     /// Builds the pattern union of two triplet lists; with `upper_only`, entries below the
     /// diagonal are dropped (the caller passes both triangles of a symmetric matrix).
@@ -63,7 +95,7 @@ impl ParamMatrix {
         all.retain(|e| !upper_only || e.0 <= e.1);
         // Every diagonal entry is in the pattern, so refactorizations never lose it.
         all.extend((0..n).map(|i| (i, i, 0.0, 0.0, DROPPED)));
-        all.sort_by_key(|e| (e.1, e.0));
+        let all = sorted_by_column(all, n);
         let mut colptr = vec![0usize; n + 1];
         let (mut rowind, mut b, mut s) = (Vec::new(), Vec::new(), Vec::<f64>::new());
         let mut last = None;
@@ -155,15 +187,45 @@ pub fn triplets(a: &CscMatrix) -> impl Iterator<Item = (usize, usize, f64)> + '_
 }
 
 /// Triplets of `H_a H_a^T` (`H` is `n x m`), accumulated column by column of `H`, over
-/// the columns `k` with `active[k] != 0`.
+/// the columns `k` with `active[k] != 0`; with `upper_only`, the upper triangle only (a
+/// symmetric system stores no more, and half the triplets cost half the assembly).
 pub fn gram_triplets<'a>(
     h: &'a CscMatrix,
     active: &'a [f64],
+    upper_only: bool,
 ) -> impl Iterator<Item = (usize, usize, f64)> + 'a {
     (0..h.ncols())
         .filter(|&k| active[k] != 0.0)
         .flat_map(move |k| {
-            h.col(k)
-                .flat_map(move |(i, vi)| h.col(k).map(move |(j, vj)| (i, j, vi * vj)))
+            h.col(k).flat_map(move |(i, vi)| {
+                h.col(k)
+                    .filter(move |&(j, _)| !upper_only || i <= j)
+                    .map(move |(j, vj)| (i, j, vi * vj))
+            })
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The counting passes order entries exactly as a stable comparison sort by
+    /// (column, row) does, duplicates included.
+    #[test]
+    fn counting_sort_matches_a_stable_sort() {
+        let n = 17;
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |m: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as usize
+        };
+        let all: Vec<(usize, usize, f64, f64, usize)> = (0..2000)
+            .map(|t| (next(n), next(n), next(100) as f64, 0.0, t))
+            .collect();
+        let mut expected = all.clone();
+        expected.sort_by_key(|e| (e.1, e.0));
+        assert_eq!(sorted_by_column(all, n), expected);
+    }
 }

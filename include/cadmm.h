@@ -317,7 +317,8 @@ typedef struct cadmm_trace_point {
 #define CADMM_STATUS_TIME_LIMIT 2
 
 /**
- * An iterate became non-finite; the solution is the last finite iterate.
+ * An iterate became non-finite; the solution is the best iterate the run measured (the
+ * last finite one when none was measured).
  */
 #define CADMM_STATUS_NUMERICAL_ERROR 3
 
@@ -660,7 +661,7 @@ cadmm_result cadmm_solver_warm_start(struct cadmm_solver *sv, const double *r, c
  * Runs ADMM until the error measure reaches the tolerance or a limit is hit, and writes
  * how it ended to `*status` (`CADMM_STATUS_*`). Hitting a limit is a status, not a
  * failure: the call returns `CADMM_OK` and the solution is the best iterate ADMM measured
- * (the last finite one after a non-finite iterate).
+ * (after a non-finite iterate too; the last finite one when none was measured).
  *
  * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_NOT_POSITIVE_DEFINITE`/`CADMM_ERR_SINGULAR`
  * (a refactorization for a new rho failed), and the code of a failed

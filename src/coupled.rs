@@ -271,9 +271,11 @@ impl CoupledSolver {
             t
         }));
         run.error = out.error;
-        if out.status == Some(Status::NumericalError) {
-            // The form's own iterate comes from the step that blew up: recompute it from
-            // the last finite iterate, which the state holds, and measure that.
+        if out.status == Some(Status::NumericalError) && !out.error.is_finite() {
+            // No finite iterate was measured (the engine hands back its best measured one
+            // otherwise): the form's own iterate comes from the step that blew up, so
+            // recompute it from the last finite iterate, which the state holds, and
+            // measure that.
             self.form.recover(&self.state)?;
             run.error = self.iterate_error();
         }
@@ -394,7 +396,7 @@ impl CoupledSolver {
         status
     }
 
-    /// The current solution (the last finite iterate).
+    /// The current solution (the iterate the last solve handed back).
     pub(crate) fn solution(&self) -> Solution {
         let mut out = Solution::default();
         self.write_solution(&mut out);

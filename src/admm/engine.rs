@@ -91,7 +91,8 @@ const INNER_TOL_FLOOR: f64 = 0.1;
 const TINY_SCALE: f64 = 1e-300;
 
 /// Runs ADMM from `state` until the problem's error measure reaches the tolerance or a
-/// limit is hit. `state` holds the last finite iterate on return.
+/// limit is hit. `state` holds, on return, the solved iterate, or the best measured one of a
+/// run a limit or a non-finite iterate ended (the last finite one when none was measured).
 pub fn run(
     sp: &mut dyn Splitting,
     state: &mut EngineState,
@@ -187,11 +188,16 @@ fn finish(
     if out.status != Some(Status::Solved) {
         out.error = sp.error(&state.ax, &state.y, &state.zeta, state.rho);
     }
-    if matches!(out.status, Some(Status::MaxIterations | Status::TimeLimit))
-        && best.error() < out.error
-    {
+    let limited = matches!(
+        out.status,
+        Some(Status::MaxIterations | Status::TimeLimit | Status::NumericalError)
+    );
+    // The last finite iterate of a diverged run may measure NaN: any finite best beats it.
+    let better = best.error() < out.error || out.error.is_nan();
+    if limited && best.error().is_finite() && better {
         // ADMM's error is not monotone: a limit hands back the best iterate of the run,
-        // measured again.
+        // measured again; so does a run that diverged, rather than its last finite iterate,
+        // whose entries can be near overflow.
         best.restore(state, sp);
         out.error = sp.error(&state.ax, &state.y, &state.zeta, state.rho);
     }

@@ -49,7 +49,8 @@ pub const CADMM_STATUS_MAX_ITERATIONS: cadmm_status = 1;
 /// The time limit was reached first; the solution is the best iterate measured, as for
 /// `CADMM_STATUS_MAX_ITERATIONS`.
 pub const CADMM_STATUS_TIME_LIMIT: cadmm_status = 2;
-/// An iterate became non-finite; the solution is the last finite iterate.
+/// An iterate became non-finite; the solution is the best iterate the run measured (the
+/// last finite one when none was measured).
 pub const CADMM_STATUS_NUMERICAL_ERROR: cadmm_status = 3;
 /// The method stopped making progress before the tolerance (only the "newton" variant,
 /// which has no ADMM to fall back on); the solution is its best iterate.

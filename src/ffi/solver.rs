@@ -372,7 +372,7 @@ pub unsafe extern "C" fn cadmm_solver_warm_start(
 /// Runs ADMM until the error measure reaches the tolerance or a limit is hit, and writes
 /// how it ended to `*status` (`CADMM_STATUS_*`). Hitting a limit is a status, not a
 /// failure: the call returns `CADMM_OK` and the solution is the best iterate ADMM measured
-/// (the last finite one after a non-finite iterate).
+/// (after a non-finite iterate too; the last finite one when none was measured).
 ///
 /// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_NOT_POSITIVE_DEFINITE`/`CADMM_ERR_SINGULAR`
 /// (a refactorization for a new rho failed), and the code of a failed

@@ -12,7 +12,8 @@ pub enum Status {
     /// The time limit was reached first; as for `MaxIterations`, the best measured iterate
     /// is kept.
     TimeLimit = 2,
-    /// An iterate became non-finite; the last finite iterate is kept.
+    /// An iterate became non-finite; the best iterate the run measured is kept (the last
+    /// finite one when none was measured).
     NumericalError = 3,
     /// The method stopped making progress before the tolerance (only the `newton` variant,
     /// which has no ADMM to fall back on); its best iterate is kept.

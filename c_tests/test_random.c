@@ -11,14 +11,21 @@
  * Every call must succeed (these problems are all valid: no other code is expected), and
  * every solve must pass tu_check_outcome (test_util.h): finite outputs, u consistent with
  * r or v, stats.error equal to the independent error e of the returned answer, and a status
- * consistent with e (SOLVED: e <= tol; otherwise e > tol). TIME_LIMIT fails (no limit is
- * set); MAX_ITERATIONS must come with the iteration count at the cap; NUMERICAL_ERROR is
- * accepted when consistent (with mu = 1e8 the iterates of every variant overflow: the
- * returned answer is then the last finite iterate, with its error), and INFEASIBLE when
- * the returned impulses carry the certificate tu_check_outcome verifies. The problems without a
- * contact must be SOLVED (v = M^-1 f, nothing to iterate on). At the end a table counts
- * the statuses; a run where no solve reached SOLVED, or none stopped at the cap, fails (the
- * test would then not exercise both sides of the consistency check).
+ * consistent with e (SOLVED: e <= tol, re-measured independently, with a capped round-off
+ * allowance, and ||r|| within the a priori bound of the problem when W is positive
+ * definite; otherwise e > tol). Each non-SOLVED status needs its reason: TIME_LIMIT fails
+ * (no limit is set); MAX_ITERATIONS must come with the iteration count at the cap;
+ * NUMERICAL_ERROR is accepted only with mu = 1e8 (the iterates overflow there: the returned
+ * answer is then the last finite iterate, with its error); INFEASIBLE only with a singular
+ * W and when the returned impulses carry the certificate tu_check_outcome verifies;
+ * STALLED only for "newton" alone. The problems without a contact must be SOLVED
+ * (v = M^-1 f, nothing to iterate on).
+ *
+ * "auto" must solve at least MIN_AUTO_SOLVED of the problems of each family, so a solver
+ * that reaches SOLVED on no contact problem fails. At the end a table counts the statuses;
+ * a run where no problem with contacts reached SOLVED, or none stopped at the cap, fails
+ * (the test would then not exercise both sides of the consistency check; the problems
+ * without a contact are left out of this count, being SOLVED by construction).
  *
  * Usage: test_random [FCLIB_DATA_DIR] (the directory is not used). Runs under valgrind too. */
 #include "cadmm.h"
@@ -38,12 +45,17 @@ static const char *const VARIANTS[] = {
 };
 #define N_VARIANTS (sizeof VARIANTS / sizeof VARIANTS[0])
 
-static const double MUS[] = {0.0, 1e-4, 0.3, 1.0, 10.0, 1e8};
+#define MU_OVERFLOW 1e8 /* the friction coefficient with which the iterates may overflow */
+static const double MUS[] = {0.0, 1e-4, 0.3, 1.0, 10.0, MU_OVERFLOW};
 #define N_MUS (sizeof MUS / sizeof MUS[0])
 
 enum family { GLOBAL, GLOBAL_SINGULAR, GLOBAL_JOINT, LOCAL, LOCAL_SINGULAR, N_FAMILIES };
 static const char *const FAMILY[] = {"global", "global, singular W", "global, one joint",
                                      "local", "local, singular W"};
+/* Least number of the N_MUS problems of each family that "auto" must solve within CAP
+ * iterations. Measured (seed SEED, CAP 300): 6 of 6 in each family but "local, singular W",
+ * 5 of 6 (with mu = 1 it proves the problem infeasible); one problem of margin each. */
+static const unsigned MIN_AUTO_SOLVED[N_FAMILIES] = {5, 5, 5, 5, 4};
 
 /* ---- generator ------------------------------------------------------------------------------ */
 
@@ -175,10 +187,18 @@ static tu_problem no_contact(tu_rng *g, int global)
 
 /* ---- solving ------------------------------------------------------------------------------ */
 
-static unsigned counts[6]; /* per status */
+static unsigned counts[6];         /* per status, all solves */
+static unsigned contact_counts[6]; /* per status, solves of problems with contacts */
 static unsigned n_solves;
+static unsigned auto_solved[N_FAMILIES]; /* "auto" solves that reached SOLVED, per family */
+static double max_roundoff;              /* largest R / TOL over SOLVED answers */
+static double max_bound_ratio;           /* largest ||r|| / bound over SOLVED answers */
+static unsigned n_bounded;               /* SOLVED answers with a finite bound on ||r|| */
 
-static void solve_all_variants(const char *name, const tu_problem *p, int must_solve)
+/* Solves `p` (of family `fam` and friction `mu`; fam < 0: no contact, must_solve) with every
+ * variant and checks each outcome and the reason of each non-SOLVED status. */
+static void solve_all_variants(const char *name, const tu_problem *p, int fam, double mu,
+                               int must_solve)
 {
     cadmm_problem *lib = NULL;
     cadmm_result rc = tu_problem_to_cadmm(p, &lib);
@@ -208,12 +228,34 @@ static void solve_all_variants(const char *name, const tu_problem *p, int must_s
             if (o.status == CADMM_STATUS_MAX_ITERATIONS)
                 CHECK_MSG(o.stats.iterations == CAP, "%s: MAX_ITERATIONS after %llu iterations",
                           label, (unsigned long long)o.stats.iterations);
+            /* The iterates overflow only with mu = 1e8 (Phi(u) = mu ||u_T|| dominates u); the
+               returned answer is then finite (tu_check_outcome checked r, u, v, lambda). */
+            if (o.status == CADMM_STATUS_NUMERICAL_ERROR)
+                CHECK_MSG(mu == MU_OVERFLOW, "%s: numerical_error where the iterates cannot "
+                          "overflow", label);
+            /* INFEASIBLE: tu_check_outcome verified the certificate on the returned r; and
+               only a singular W allows one (with W positive definite a solution exists, and
+               tu_problem_solution_bound then gives a finite bound). */
+            if (o.status == CADMM_STATUS_INFEASIBLE)
+                CHECK_MSG(!isfinite(tu_problem_solution_bound(p)), "%s: infeasible, but W is "
+                          "positive definite", label);
+            if (o.status == CADMM_STATUS_SOLVED) {
+                double B = tu_problem_solution_bound(p);
+                double R = tu_problem_error_roundoff(p, o.r, o.v, o.lambda);
+                max_roundoff = tu_max(max_roundoff, R / TOL);
+                if (isfinite(B) && B > 0.0) {
+                    max_bound_ratio = tu_max(max_bound_ratio, tu_norm(o.r, 3 * p->nc) / B);
+                    ++n_bounded;
+                }
+            }
             if (must_solve)
                 CHECK_MSG(o.status == CADMM_STATUS_SOLVED, "%s: not solved (%s)", label,
                           tu_status_name(o.status));
         }
         if (o.solved_call && o.status >= 0 && o.status <= CADMM_STATUS_INFEASIBLE) {
             ++counts[o.status];
+            if (p->nc > 0) ++contact_counts[o.status];
+            if (fam >= 0 && vi == 0 && o.status == CADMM_STATUS_SOLVED) ++auto_solved[fam];
             solved += o.status == CADMM_STATUS_SOLVED;
             capped += o.status == CADMM_STATUS_MAX_ITERATIONS;
         }
@@ -235,19 +277,35 @@ int main(void)
             tu_problem p = fam <= GLOBAL_JOINT ? random_global(&g, (enum family)fam, MUS[mi])
                                                : random_local(&g, (enum family)fam, MUS[mi]);
             snprintf(name, sizeof name, "%s, mu = %g", FAMILY[fam], MUS[mi]);
-            solve_all_variants(name, &p, 0);
+            solve_all_variants(name, &p, fam, MUS[mi], 0);
             tu_problem_free(&p);
         }
     for (int global = 1; global >= 0; --global) {
         tu_problem p = no_contact(&g, global);
-        solve_all_variants(global ? "global, no contact" : "local, no contact", &p, 1);
+        solve_all_variants(global ? "global, no contact" : "local, no contact", &p, -1, 0.0, 1);
         tu_problem_free(&p);
     }
     printf("%u solves: %u solved, %u max_iterations, %u time_limit, %u numerical_error, "
            "%u stalled, %u infeasible\n", n_solves, counts[0], counts[1], counts[2], counts[3],
            counts[4], counts[5]);
-    CHECK_MSG(counts[CADMM_STATUS_SOLVED] > 0 && counts[CADMM_STATUS_MAX_ITERATIONS] > 0,
-              "the run did not exercise both SOLVED (%u) and MAX_ITERATIONS (%u)",
-              counts[CADMM_STATUS_SOLVED], counts[CADMM_STATUS_MAX_ITERATIONS]);
+    printf("problems with contacts: %u solved, %u max_iterations, %u numerical_error, %u "
+           "stalled, %u infeasible\n", contact_counts[0], contact_counts[1], contact_counts[3],
+           contact_counts[4], contact_counts[5]);
+    printf("\"auto\" solved per family (of %zu):", N_MUS);
+    for (int fam = 0; fam < N_FAMILIES; ++fam)
+        printf(" %s %u (at least %u)%s", FAMILY[fam], auto_solved[fam], MIN_AUTO_SOLVED[fam],
+               fam + 1 < N_FAMILIES ? ";" : "\n");
+    printf("SOLVED answers: largest round-off estimate %.1e tol; ||r|| at most %.3f of the "
+           "a priori bound (%u answers with one)\n", max_roundoff, max_bound_ratio, n_bounded);
+    for (int fam = 0; fam < N_FAMILIES; ++fam)
+        CHECK_MSG(auto_solved[fam] >= MIN_AUTO_SOLVED[fam], "\"auto\" solved %u of the %zu "
+                  "problems of family \"%s\", expected at least %u", auto_solved[fam], N_MUS,
+                  FAMILY[fam], MIN_AUTO_SOLVED[fam]);
+    /* counted on the problems with contacts only: the no-contact ones are always SOLVED */
+    CHECK_MSG(contact_counts[CADMM_STATUS_SOLVED] > 0 &&
+                  contact_counts[CADMM_STATUS_MAX_ITERATIONS] > 0,
+              "the problems with contacts did not exercise both SOLVED (%u) and "
+              "MAX_ITERATIONS (%u)", contact_counts[CADMM_STATUS_SOLVED],
+              contact_counts[CADMM_STATUS_MAX_ITERATIONS]);
     return tu_finish("test_random");
 }

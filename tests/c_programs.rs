@@ -1,7 +1,8 @@
 //! Builds and runs the plain C test programs of `c_tests/` (`test_api_errors.c`,
 //! `test_analytic.c`, `test_joints.c`, `test_islands.c`, `test_random.c`,
-//! `test_update_settings.c`) against the cadmm shared library that cargo built for this test run,
-//! so `cargo test` exercises the C API too (CMake/CTest runs the full C/C++ suite).
+//! `test_update_settings.c`, `test_api_paths.c`) against the cadmm shared library that cargo
+//! built for this test run, so `cargo test` exercises the C API too (CMake/CTest runs the
+//! full C/C++ suite).
 //!
 //! The programs are compiled with the `cc` crate (`-Wall -Wextra -Werror`, C11) into
 //! `target/<profile>/c_programs/<name>/`, linked with a private copy of the cdylib, and
@@ -95,8 +96,9 @@ fn target_triple() -> String {
     }
 }
 
-/// Compiles `c_tests/<name>.c` into an executable linked with the cadmm shared library.
-fn build(name: &str) -> PathBuf {
+/// Compiles `c_tests/<name>.c` into an executable linked with the cadmm shared library,
+/// with `extra` compiler and linker flags (`-pthread` for a program that starts threads).
+fn build(name: &str, extra: &[&str]) -> PathBuf {
     let root = manifest_dir();
     let header = root.join("include").join("cadmm.h");
     assert!(
@@ -141,6 +143,7 @@ fn build(name: &str) -> PathBuf {
         .arg(format!("-L{}", lib_dir.display()))
         .arg("-lcadmm")
         .arg(format!("-Wl,-rpath,{}", lib_dir.display()))
+        .args(extra)
         .arg("-lm");
     let output = cmd
         .output()
@@ -157,7 +160,12 @@ fn build(name: &str) -> PathBuf {
 
 /// Builds and runs one program; it must exit with 0.
 fn run(name: &str) {
-    let exe = build(name);
+    run_with(name, &[]);
+}
+
+/// [`run`] with extra compiler and linker flags.
+fn run_with(name: &str, extra: &[&str]) {
+    let exe = build(name, extra);
     let data_dir = manifest_dir().join("../shared/data/fclib");
     let out_dir = exe.parent().map(Path::to_path_buf).unwrap_or_default();
     // cargo's LD_LIBRARY_PATH can name a stale uplifted copy of the library and would
@@ -207,4 +215,9 @@ fn c_test_random() {
 #[test]
 fn c_test_update_settings() {
     run("test_update_settings");
+}
+
+#[test]
+fn c_test_api_paths() {
+    run_with("test_api_paths", &["-pthread"]);
 }

@@ -5,7 +5,7 @@ use super::panic::{catch, guard, guard_value};
 use super::problem::{cadmm_problem, problem_ref};
 use super::result::{
     cadmm_result, cadmm_status, status_code, Failure, FfiResult, CADMM_ERR_INVALID_VALUE,
-    CADMM_ERR_PANIC, CADMM_ERR_UNSUPPORTED,
+    CADMM_ERR_PANIC,
 };
 use super::settings::{cadmm_settings, settings_ref};
 use super::stats::{cadmm_stats, cadmm_trace_point, write_stats, STATS_MIN_SIZE};
@@ -231,11 +231,14 @@ pub unsafe extern "C" fn cadmm_solver_update_values(
 ) -> cadmm_result {
     let body = |sv: &mut cadmm_solver| -> FfiResult {
         if !sv.is_global {
-            return Err(Failure::new(
-                CADMM_ERR_UNSUPPORTED,
-                "cadmm_solver_update_values: the solver holds a local problem; use \
-                 cadmm_solver_update_local_values",
-            ));
+            // Refused like any failed update: the solver refuses to solve until one succeeds.
+            return update_with(sv, |_| {
+                Err(crate::Error::Unsupported(
+                    "cadmm_solver_update_values: the solver holds a local problem; use \
+                     cadmm_solver_update_local_values"
+                        .into(),
+                ))
+            });
         }
         let [m_nnz, h_nnz, g_nnz, n_joints] = sv.value_lens;
         let m = contact_len(sv.n_contacts)?;
@@ -271,11 +274,14 @@ pub unsafe extern "C" fn cadmm_solver_update_local_values(
 ) -> cadmm_result {
     let body = |sv: &mut cadmm_solver| -> FfiResult {
         if sv.is_global {
-            return Err(Failure::new(
-                CADMM_ERR_UNSUPPORTED,
-                "cadmm_solver_update_local_values: the solver holds a global problem; use \
-                 cadmm_solver_update_values",
-            ));
+            // Refused like any failed update: the solver refuses to solve until one succeeds.
+            return update_with(sv, |_| {
+                Err(crate::Error::Unsupported(
+                    "cadmm_solver_update_local_values: the solver holds a global problem; use \
+                     cadmm_solver_update_values"
+                        .into(),
+                ))
+            });
         }
         let m = contact_len(sv.n_contacts)?;
         // SAFETY: lengths from the problem the solver was built for; the caller's contract.

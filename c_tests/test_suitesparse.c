@@ -13,15 +13,21 @@
  *     singular (redundant contacts, as in the box stacks: four corner contacts per face)
  *     r is not unique, so only u = H^T v + w and the error measures are compared;
  *  4. with the fclib feature: the library's own reader (cadmm_problem_read_fclib) gives the
- *     same problem as ours (equal error measures at the same candidate), including the
- *     compressed-row encoding (nz = -2) of two local files.
+ *     same problem as ours on every file of global/ and local/ (the 71 of the README):
+ *     compressed column (nz = -1), compressed row (nz = -2: Capsules-i125-1213,
+ *     LMGC_100_PR_PerioBox) and triplets. Equal error measures at two candidates, and the
+ *     same data entry by entry (the library's problem written back with
+ *     cadmm_problem_write_fclib and read by ours). Built without the feature, the
+ *     comparison is skipped with a note (CI configures with -DCADMM_WITH_FCLIB=ON).
  *
  * Usage: test_suitesparse FCLIB_DATA_DIR (exit 77 = skipped, only when it does not exist). */
 #include "cadmm.h"
 #include "fclib_read.h"
 
 #include <cholmod.h>
+#include <dirent.h>
 #include <umfpack.h>
+#include <unistd.h>
 
 #ifndef CADMM_TEST_HAVE_FCLIB
 #define CADMM_TEST_HAVE_FCLIB 1
@@ -247,36 +253,189 @@ static void fill_random(double *x, size_t n, unsigned seed)
     }
 }
 
-/* With the fclib feature: the library's reader and ours agree (same error at a candidate). */
-static void compare_readers(const char *path, const fcr_problem *P, const cadmm_problem *ours)
+/* Largest |a - b| entry by entry (a missing entry is a zero), relative to the largest |a|,
+ * |b|; 1 when the shapes differ. */
+static double csc_difference(const tu_csc *a, const tu_csc *b)
+{
+    double worst = 0.0, scale = 0.0, *col;
+    if (a->nrows != b->nrows || a->ncols != b->ncols) return 1.0;
+    col = (double *)tu_calloc(a->nrows + 1, sizeof(double));
+    for (size_t j = 0; j < a->ncols; ++j) {
+        for (int64_t k = a->colptr[j]; k < a->colptr[j + 1]; ++k) {
+            col[a->rowind[k]] += a->values[k];
+            scale = tu_max(scale, fabs(a->values[k]));
+        }
+        for (int64_t k = b->colptr[j]; k < b->colptr[j + 1]; ++k) {
+            col[b->rowind[k]] -= b->values[k];
+            scale = tu_max(scale, fabs(b->values[k]));
+        }
+        for (int64_t k = a->colptr[j]; k < a->colptr[j + 1]; ++k) {
+            worst = tu_max(worst, fabs(col[a->rowind[k]]));
+            col[a->rowind[k]] = 0.0;
+        }
+        for (int64_t k = b->colptr[j]; k < b->colptr[j + 1]; ++k) {
+            worst = tu_max(worst, fabs(col[b->rowind[k]]));
+            col[b->rowind[k]] = 0.0;
+        }
+    }
+    free(col);
+    return scale > 0.0 ? worst / scale : worst;
+}
+
+static double vec_difference(const double *a, const double *b, size_t n)
+{
+    double worst = 0.0, scale = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        worst = tu_max(worst, fabs(a[i] - b[i]));
+        scale = tu_max(scale, tu_max(fabs(a[i]), fabs(b[i])));
+    }
+    return scale > 0.0 ? worst / scale : worst;
+}
+
+/* The library's reading of `path`, written back by the library (compressed column) and read
+ * by ours, holds the same data entry by entry as our reading of `path` (P): the error
+ * measure alone can miss an entry (a contact whose candidate lies in the polar cone does
+ * not depend on W). A reader bug could hide here only behind an inverse bug of the writer. */
+static void compare_data(const char *path, const fcr_problem *P, const cadmm_problem *lib)
+{
+    char copy[64], err[512];
+    fcr_problem Q;
+    size_t m = 3 * P->nc;
+    double d = 0.0;
+    cadmm_result rc;
+    /* per process: CTest may run this program and its valgrind variant at once, here */
+    snprintf(copy, sizeof copy, "test_suitesparse_copy_%ld.hdf5", (long)getpid());
+    rc = cadmm_problem_write_fclib(lib, copy);
+    if (rc != CADMM_OK) {
+        TU_FAIL("%s: cadmm_problem_write_fclib: %s", path, cadmm_last_error());
+        return;
+    }
+    if (fcr_read(copy, &Q, err, sizeof err) != 0) {
+        TU_FAIL("%s: reading the library's copy: %s", path, err);
+        remove(copy);
+        return;
+    }
+    remove(copy);
+    if (Q.is_global != P->is_global || Q.n != P->n || Q.nc != P->nc) {
+        TU_FAIL("%s: the library's copy has other dimensions", path);
+    } else if (P->is_global) {
+        d = tu_max(csc_difference(&P->M, &Q.M), csc_difference(&P->H, &Q.H));
+        d = tu_max(d, tu_max(vec_difference(P->f, Q.f, P->n), vec_difference(P->w, Q.w, m)));
+    } else {
+        d = tu_max(csc_difference(&P->W, &Q.W), vec_difference(P->q, Q.q, m));
+    }
+    d = tu_max(d, vec_difference(P->mu, Q.mu, P->nc));
+    CHECK_MSG(d <= 1e-15, "%s: the library's reader and ours differ: largest entry difference "
+              "%.3e (relative to the largest entry)", path, d);
+    fcr_free(&Q);
+}
+
+/* With the fclib feature: the library's reader and ours agree: same dims, same error at two
+ * random candidates, and the same data entry by entry (compare_data). Returns 1 when the
+ * readers were compared. */
+static int compare_readers(const char *path, const fcr_problem *P, const cadmm_problem *ours)
 {
     cadmm_problem *lib = NULL;
     size_t n = 0, nc = 0, m = 3 * P->nc;
     bool g = false;
-    double *r, *v, e1 = -1, e2 = -2;
-    if (!CADMM_TEST_HAVE_FCLIB) return;
+    double *r, *v;
+    if (!CADMM_TEST_HAVE_FCLIB) return 0;
     if (cadmm_problem_read_fclib(path, &lib) != CADMM_OK) {
-        TU_FAIL("%s: cadmm_problem_read_fclib failed", path);
-        return;
+        TU_FAIL("%s: cadmm_problem_read_fclib failed: %s", path, cadmm_last_error());
+        return 0;
     }
     REQUIRE(cadmm_problem_dims(lib, &n, &nc, &g) == CADMM_OK);
     CHECK_MSG(n == P->n && nc == P->nc && (g ? 1 : 0) == P->is_global,
               "%s: library reader dims (%zu, %zu, %d), ours (%zu, %zu, %d)", path, n, nc,
               (int)g, P->n, P->nc, P->is_global);
-    r = (double *)tu_calloc(m, sizeof(double));
+    if (n != P->n || nc != P->nc) {
+        cadmm_problem_free(lib);
+        return 0;
+    }
+    r = (double *)tu_calloc(m + 1, sizeof(double));
     v = (double *)tu_calloc(P->n + 1, sizeof(double));
-    fill_random(r, m, 1);
-    for (size_t k = 0; k < m; k += 3) r[k] = fabs(r[k]) + 0.5; /* in front of the cone */
-    fill_random(v, P->n, 2);
-    REQUIRE(cadmm_problem_error(lib, r, NULL, v, &e1) == CADMM_OK);
-    REQUIRE(cadmm_problem_error(ours, r, NULL, v, &e2) == CADMM_OK);
-    CHECK_MSG(fabs(e1 - e2) <= 1e-12 * fabs(e2),
-              "%s: library reader and ours differ: error %.17g vs %.17g", path, e1, e2);
-    printf("  readers agree (encodings %d/%d): error at a random candidate %.6g\n",
-           P->encoding[0], P->encoding[1], e2);
+    for (unsigned seed = 1; seed <= 3; seed += 2) {
+        double e1 = -1, e2 = -2;
+        fill_random(r, m, seed);
+        for (size_t k = 0; k < m; k += 3) r[k] = fabs(r[k]) + 0.5; /* in front of the cone */
+        fill_random(v, P->n, seed + 1);
+        REQUIRE(cadmm_problem_error(lib, r, NULL, v, &e1) == CADMM_OK);
+        REQUIRE(cadmm_problem_error(ours, r, NULL, v, &e2) == CADMM_OK);
+        CHECK_MSG(fabs(e1 - e2) <= 1e-12 * fabs(e2),
+                  "%s: library reader and ours differ: error %.17g vs %.17g (candidate %u)",
+                  path, e1, e2, seed);
+    }
     free(r);
     free(v);
+    compare_data(path, P, lib);
     cadmm_problem_free(lib);
+    return 1;
+}
+
+static int by_name(const void *a, const void *b)
+{
+    return strcmp(*(const char *const *)a, *(const char *const *)b);
+}
+
+/* Every *.hdf5 of DIR/global and DIR/local read by both readers (see compare_readers). */
+static void compare_readers_on_every_file(const char *dir)
+{
+    static const char *const subdirs[2] = {"global", "local"};
+    size_t compared = 0, by_encoding[3] = {0, 0, 0}; /* nz = -1, -2, triplets */
+    if (!CADMM_TEST_HAVE_FCLIB) {
+        printf("NOTE: libcadmm built without the fclib feature: its FCLib reader is not "
+               "compared with ours (configure with -DCADMM_WITH_FCLIB=ON)\n");
+        return;
+    }
+    printf("both readers on every file:\n");
+    for (int sd = 0; sd < 2; ++sd) {
+        char sub[4096];
+        char *names[512];
+        size_t k = 0;
+        DIR *d = opendir(tu_join(sub, sizeof sub, dir, subdirs[sd]));
+        struct dirent *e;
+        REQUIRE(d != NULL);
+        while ((e = readdir(d)) != NULL) {
+            size_t len = strlen(e->d_name);
+            if (len > 5 && strcmp(e->d_name + len - 5, ".hdf5") == 0) {
+                REQUIRE(k < sizeof names / sizeof names[0]);
+                names[k] = (char *)tu_calloc(len + 1, 1);
+                memcpy(names[k++], e->d_name, len + 1);
+            }
+        }
+        closedir(d);
+        qsort(names, k, sizeof names[0], by_name);
+        for (size_t i = 0; i < k; ++i) {
+            char path[4096], err[512];
+            fcr_problem P;
+            cadmm_problem *ours = NULL;
+            tu_join(path, sizeof path, sub, names[i]);
+            if (fcr_read(path, &P, err, sizeof err) != 0) {
+                TU_FAIL("reading %s: %s", path, err);
+            } else if (P.has_joints) {
+                TU_FAIL("%s has joints, which our reader does not read", path);
+                fcr_free(&P);
+            } else if (tu_problem_to_cadmm(&P, &ours) != CADMM_OK) {
+                TU_FAIL("%s: building the problem read by ours failed: %s", path,
+                        cadmm_last_error());
+                fcr_free(&P);
+            } else {
+                if (compare_readers(path, &P, ours)) {
+                    ++compared;
+                    ++by_encoding[P.encoding[0] == -1 ? 0 : P.encoding[0] == -2 ? 1 : 2];
+                }
+                cadmm_problem_free(ours);
+                fcr_free(&P);
+            }
+            free(names[i]);
+        }
+    }
+    printf("  readers agree on %zu files (first matrix: %zu compressed column, %zu compressed "
+           "row, %zu triplets)\n", compared, by_encoding[0], by_encoding[1], by_encoding[2]);
+    CHECK_MSG(compared == 71, "readers compared on %zu files, expected the 71 FCLib files",
+              compared);
+    CHECK_MSG(by_encoding[1] == 2, "%zu compressed-row files compared, expected 2",
+              by_encoding[1]);
 }
 
 static void check_global_file(const char *dir, const file_case *fc)
@@ -508,6 +667,7 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < sizeof FILES / sizeof FILES[0]; ++i) check_global_file(dir, &FILES[i]);
     check_local_reader(dir, "local/LMGC_100_PR_PerioBox-i00361-60-03000.hdf5");
     check_local_reader(dir, "local/Capsules-i125-1213.hdf5");
+    compare_readers_on_every_file(dir);
     cholmod_l_finish(&CM);
     return tu_finish("test_suitesparse");
 }

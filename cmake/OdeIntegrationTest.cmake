@@ -53,7 +53,7 @@ if(STEP STREQUAL "build")
   run(COMMAND "${CMAKE_COMMAND}" -S "${SOURCE_DIR}" -B "${WORK_DIR}/build" ${_gen}
               -DCMAKE_BUILD_TYPE=Release "-DCMAKE_C_COMPILER=${C_COMPILER}"
               "-DCMAKE_PREFIX_PATH=${PREFIX}" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF
-              -DCMAKE_FIND_USE_SYSTEM_PACKAGE_REGISTRY=OFF)
+              -DCMAKE_FIND_USE_SYSTEM_PACKAGE_REGISTRY=OFF "-DCADMM_ODE_SANITIZE=${SANITIZE}")
   run(COMMAND "${CMAKE_COMMAND}" --build "${WORK_DIR}/build")
   if(NOT EXISTS "${EXE}")
     message(FATAL_ERROR "[ode] the build produced no ${EXE}")

@@ -17,7 +17,8 @@ if(CADMM_ODE_FOUND)
   add_test(NAME ode_integration_build
     COMMAND ${CMAKE_COMMAND} -DSTEP=build "-DBUILD_DIR=${CMAKE_BINARY_DIR}"
       "-DWORK_DIR=${_ode_work}" "-DSOURCE_DIR=${PROJECT_SOURCE_DIR}/integrations/ode"
-      "-DC_COMPILER=${CMAKE_C_COMPILER}" "-DGENERATOR=${CMAKE_GENERATOR}" -P "${_ode_script}")
+      "-DC_COMPILER=${CMAKE_C_COMPILER}" "-DGENERATOR=${CMAKE_GENERATOR}"
+      "-DSANITIZE=${CADMM_SANITIZE}" -P "${_ode_script}")
   set_tests_properties(ode_integration_build PROPERTIES LABELS "integration;ode" TIMEOUT 600
     FIXTURES_SETUP cadmm_ode)
   # ode_run(<test name> <program> <expected exit code> [VALGRIND] <arguments...>)

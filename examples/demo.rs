@@ -549,9 +549,12 @@ fn summary(
         let dishonest = logs
             .iter()
             .filter(|l| l.contacts > 0)
-            .filter(|l| match l.status {
-                Status::Solved => !(l.check <= 2.0 * tolerance),
-                _ => !((l.error - l.check).abs() <= 1e-6 * l.check && l.check > tolerance),
+            .filter(|l| {
+                let honest = match l.status {
+                    Status::Solved => l.check <= 2.0 * tolerance,
+                    _ => (l.error - l.check).abs() <= 1e-6 * l.check && l.check > tolerance,
+                };
+                !honest
             })
             .count();
         check(

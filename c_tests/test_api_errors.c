@@ -23,35 +23,6 @@ static double sentinel_storage[4]; /* suitably aligned, never dereferenced throu
 #define SENTINEL_SOLVER ((cadmm_solver *)(void *)&sentinel_storage[2])
 #define SENTINEL_DOUBLE (-12345.678)
 
-static const char *code_name(cadmm_result c)
-{
-    switch (c) {
-    case CADMM_OK: return "CADMM_OK";
-    case CADMM_ERR_NULL_POINTER: return "CADMM_ERR_NULL_POINTER";
-    case CADMM_ERR_DIMENSION: return "CADMM_ERR_DIMENSION";
-    case CADMM_ERR_INVALID_CSC: return "CADMM_ERR_INVALID_CSC";
-    case CADMM_ERR_INVALID_VALUE: return "CADMM_ERR_INVALID_VALUE";
-    case CADMM_ERR_NOT_POSITIVE_DEFINITE: return "CADMM_ERR_NOT_POSITIVE_DEFINITE";
-    case CADMM_ERR_SINGULAR: return "CADMM_ERR_SINGULAR";
-    case CADMM_ERR_INVALID_SETTING: return "CADMM_ERR_INVALID_SETTING";
-    case CADMM_ERR_IO: return "CADMM_ERR_IO";
-    case CADMM_ERR_UNSUPPORTED: return "CADMM_ERR_UNSUPPORTED";
-    case CADMM_ERR_PANIC: return "CADMM_ERR_PANIC";
-    case CADMM_ERR_PATTERN_CHANGED: return "CADMM_ERR_PATTERN_CHANGED";
-    case CADMM_ERR_OUT_OF_MEMORY: return "CADMM_ERR_OUT_OF_MEMORY";
-    default: return "(unknown code)";
-    }
-}
-
-#define EXPECT_RC(expr, expected)                                                         \
-    do {                                                                                  \
-        cadmm_result rc_ = (expr);                                                        \
-        if (rc_ != (expected))                                                            \
-            TU_FAIL("%s returned %s (%d), expected %s", #expr, code_name(rc_), (int)rc_,  \
-                    code_name(expected));                                                 \
-    } while (0)
-
-#define REQUIRE_OK(expr) REQUIRE((expr) == CADMM_OK)
 
 /* ---- a valid single-contact problem ------------------------------------------------------ */
 /* M = 2 I, H = I, f = (-2, 0.2, 0), w = 0, mu = 0.5: q = f/2 = (-1, 0.1, 0) sticks, so
@@ -192,8 +163,8 @@ static void global_fails(const char *what, const char *words, const char *phrase
     cadmm_result rc;
     prime_last_error();
     rc = cadmm_problem_new_global(n, nc, M, H, f, w, mu, &p);
-    CHECK_MSG(rc == expected, "new_global [%s]: %s, expected %s (%s)", what, code_name(rc),
-              code_name(expected), rc == CADMM_OK ? "" : cadmm_last_error());
+    CHECK_MSG(rc == expected, "new_global [%s]: %s, expected %s (%s)", what, tu_result_name(rc),
+              tu_result_name(expected), rc == CADMM_OK ? "" : cadmm_last_error());
     if (expected != CADMM_OK) {
         CHECK_MSG(p == SENTINEL_PROBLEM, "new_global [%s]: out-parameter overwritten", what);
         if (rc == expected) check_message(what, cadmm_last_error(), 1, words, phrases);
@@ -215,8 +186,8 @@ static void local_fails(const char *what, const char *words, const char *phrases
     cadmm_result rc;
     prime_last_error();
     rc = cadmm_problem_new_local(nc, W, q, mu, &p);
-    CHECK_MSG(rc == expected, "new_local [%s]: %s, expected %s (%s)", what, code_name(rc),
-              code_name(expected), rc == CADMM_OK ? "" : cadmm_last_error());
+    CHECK_MSG(rc == expected, "new_local [%s]: %s, expected %s (%s)", what, tu_result_name(rc),
+              tu_result_name(expected), rc == CADMM_OK ? "" : cadmm_last_error());
     if (expected != CADMM_OK) {
         CHECK_MSG(p == SENTINEL_PROBLEM, "new_local [%s]: out-parameter overwritten", what);
         if (rc == expected) check_message(what, cadmm_last_error(), 1, words, phrases);
@@ -259,7 +230,7 @@ static void test_basics(void)
             continue;
         }
         CHECK_MSG(find_ci(m, keyword[c]) != NULL, "message of %s is \"%s\": it does not say \"%s\"",
-                  code_name(c), m, keyword[c]);
+                  tu_result_name(c), m, keyword[c]);
         CHECK_MSG(find_ci(m, "unknown") == NULL, "code %d is unknown: %s", c, m);
         for (int d = CADMM_OK; d < c; ++d)
             CHECK_MSG(strcmp(m, cadmm_result_message(d)) != 0,
@@ -566,7 +537,7 @@ static void test_settings(void)
             prime_last_error();
             rc = cadmm_settings_set_variant(s, bad[i]);
             CHECK_MSG(rc == CADMM_ERR_INVALID_SETTING, "set_variant(\"%s\"): %s", bad[i],
-                      code_name(rc));
+                      tu_result_name(rc));
             /* the message names the setting, says the name is unknown, and quotes it */
             snprintf(quoted, sizeof quoted, "unknown|'%s'", bad[i]);
             expect_last_error(bad[i], "variant", quoted);
@@ -577,7 +548,7 @@ static void test_settings(void)
                                            "vp-R-Spectral", "vp-RR-Spectral"};
         for (size_t i = 0; i < sizeof good / sizeof good[0]; ++i) {
             cadmm_result rc = cadmm_settings_set_variant(s, good[i]);
-            CHECK_MSG(rc == CADMM_OK, "set_variant(\"%s\"): %s", good[i], code_name(rc));
+            CHECK_MSG(rc == CADMM_OK, "set_variant(\"%s\"): %s", good[i], tu_result_name(rc));
         }
     }
 
@@ -684,8 +655,8 @@ static void solver_new_fails(const char *what, const char *words, const char *ph
     cadmm_result rc;
     prime_last_error();
     rc = cadmm_solver_new(p, s, &sv);
-    CHECK_MSG(rc == expected, "solver_new [%s]: %s, expected %s", what, code_name(rc),
-              code_name(expected));
+    CHECK_MSG(rc == expected, "solver_new [%s]: %s, expected %s", what, tu_result_name(rc),
+              tu_result_name(expected));
     CHECK_MSG(sv == SENTINEL_SOLVER, "solver_new [%s]: out-parameter overwritten", what);
     if (rc == expected) check_message(what, cadmm_last_error(), 1, words, phrases);
     if (rc == CADMM_OK && sv != SENTINEL_SOLVER) cadmm_solver_free(sv);

@@ -45,41 +45,6 @@
 #define TOL 1e-8
 #define AGREE 1e-9 /* stats.error against the independent error, relative */
 
-static const char *code_name(cadmm_result c)
-{
-    switch (c) {
-    case CADMM_OK: return "CADMM_OK";
-    case CADMM_ERR_NULL_POINTER: return "CADMM_ERR_NULL_POINTER";
-    case CADMM_ERR_DIMENSION: return "CADMM_ERR_DIMENSION";
-    case CADMM_ERR_INVALID_CSC: return "CADMM_ERR_INVALID_CSC";
-    case CADMM_ERR_INVALID_VALUE: return "CADMM_ERR_INVALID_VALUE";
-    case CADMM_ERR_NOT_POSITIVE_DEFINITE: return "CADMM_ERR_NOT_POSITIVE_DEFINITE";
-    case CADMM_ERR_SINGULAR: return "CADMM_ERR_SINGULAR";
-    case CADMM_ERR_INVALID_SETTING: return "CADMM_ERR_INVALID_SETTING";
-    case CADMM_ERR_IO: return "CADMM_ERR_IO";
-    case CADMM_ERR_UNSUPPORTED: return "CADMM_ERR_UNSUPPORTED";
-    case CADMM_ERR_PANIC: return "CADMM_ERR_PANIC";
-    case CADMM_ERR_PATTERN_CHANGED: return "CADMM_ERR_PATTERN_CHANGED";
-    case CADMM_ERR_OUT_OF_MEMORY: return "CADMM_ERR_OUT_OF_MEMORY";
-    default: return "(unknown code)";
-    }
-}
-
-static const char *status_name(cadmm_status s)
-{
-    return s == CADMM_STATUS_UNSOLVED ? "unsolved" : tu_status_name(s);
-}
-
-#define EXPECT_RC(expr, expected)                                                         \
-    do {                                                                                  \
-        cadmm_result rc_ = (expr);                                                        \
-        if (rc_ != (expected))                                                            \
-            TU_FAIL("%s returned %s (%d), expected %s (message: \"%s\")", #expr,          \
-                    code_name(rc_), (int)rc_, code_name(expected), cadmm_last_error());   \
-    } while (0)
-
-#define REQUIRE_OK(expr) REQUIRE((expr) == CADMM_OK)
-
 static double now_seconds(void)
 {
     struct timespec ts;
@@ -88,82 +53,6 @@ static double now_seconds(void)
 }
 
 /* ---- problems ----------------------------------------------------------------------------- */
-
-/* A global problem with nb free bodies of 3 velocities (M block diagonal SPD with a coupling
- * inside each block) and nc contacts, contact k between body k mod nb and the body below it
- * (the ground for the first nb contacts when chain != 0, otherwise a random body or the
- * ground), frames the identity plus a perturbation; f pushes the bodies down and sideways. */
-static tu_problem gen_global(tu_rng *g, size_t nb, size_t nc, double mu, int chain)
-{
-    tu_problem p;
-    size_t n = 3 * nb, m = 3 * nc;
-    double *Md = (double *)tu_calloc(n * n, sizeof(double));
-    double *Hd = (double *)tu_calloc(n * m, sizeof(double));
-    memset(&p, 0, sizeof p);
-    p.is_global = 1;
-    p.n = n;
-    p.nc = nc;
-    for (size_t b = 0; b < nb; ++b) {
-        double mass = tu_rng_range(g, 0.5, 4.0), c = tu_rng_range(g, -0.2, 0.2);
-        for (size_t i = 0; i < 3; ++i) Md[(3 * b + i) * n + 3 * b + i] = mass;
-        Md[(3 * b) * n + 3 * b + 1] = Md[(3 * b + 1) * n + 3 * b] = c * mass;
-    }
-    for (size_t k = 0; k < nc; ++k) {
-        size_t b1, b2; /* b2 == nb: the ground */
-        if (chain) {
-            b1 = k % nb;
-            b2 = k < nb ? (k == 0 ? nb : k - 1) : tu_rng_index(g, nb + 1);
-        } else {
-            b1 = tu_rng_index(g, nb);
-            b2 = tu_rng_index(g, nb + 1);
-        }
-        for (size_t i = 0; i < 3; ++i)
-            for (size_t j = 0; j < 3; ++j) {
-                double h = (i == j ? 1.0 : 0.0) + tu_rng_range(g, -0.3, 0.3);
-                Hd[(3 * b1 + i) * m + 3 * k + j] += h;
-                if (b2 < nb && b2 != b1) Hd[(3 * b2 + i) * m + 3 * k + j] -= h;
-            }
-    }
-    p.M = tu_csc_from_dense(n, n, Md);
-    p.H = tu_csc_from_dense(n, m, Hd);
-    p.f = (double *)tu_calloc(n, sizeof(double));
-    p.w = (double *)tu_calloc(m, sizeof(double));
-    p.mu = (double *)tu_calloc(nc, sizeof(double));
-    for (size_t i = 0; i < n; ++i) p.f[i] = tu_rng_range(g, -1.0, 1.0) - (i % 3 == 0 ? 2.0 : 0.0);
-    for (size_t i = 0; i < m; ++i) p.w[i] = tu_rng_range(g, -0.05, 0.05);
-    for (size_t k = 0; k < nc; ++k) p.mu[k] = mu;
-    free(Md);
-    free(Hd);
-    return p;
-}
-
-/* A local problem W = A^T A + 0.1 I (A random 3nc x 3nc, so W is dense: every entry is a
- * non-zero), q random with q_N < 0. Two calls give the same pattern, other values. */
-static tu_problem gen_local(tu_rng *g, size_t nc, double mu)
-{
-    tu_problem p;
-    size_t m = 3 * nc;
-    double *A = (double *)tu_calloc(m * m, sizeof(double));
-    double *Wd = (double *)tu_calloc(m * m, sizeof(double));
-    memset(&p, 0, sizeof p);
-    p.nc = nc;
-    for (size_t i = 0; i < m * m; ++i) A[i] = tu_rng_range(g, -1.0, 1.0);
-    for (size_t i = 0; i < m; ++i)
-        for (size_t j = 0; j < m; ++j) {
-            double s = i == j ? 0.1 : 0.0;
-            for (size_t k = 0; k < m; ++k) s += A[k * m + i] * A[k * m + j];
-            Wd[i * m + j] = s;
-        }
-    p.W = tu_csc_from_dense(m, m, Wd);
-    REQUIRE((size_t)p.W.colptr[m] == m * m);
-    p.q = (double *)tu_calloc(m, sizeof(double));
-    p.mu = (double *)tu_calloc(nc, sizeof(double));
-    for (size_t i = 0; i < m; ++i) p.q[i] = tu_rng_range(g, -1.0, 1.0) - (i % 3 == 0 ? 1.0 : 0.0);
-    for (size_t k = 0; k < nc; ++k) p.mu[k] = mu;
-    free(A);
-    free(Wd);
-    return p;
-}
 
 /* Index of entry (row, col) in the values of `a`. */
 static size_t csc_index(const tu_csc *a, size_t row, size_t col)
@@ -188,7 +77,7 @@ static cadmm_problem *to_cadmm(const tu_problem *p)
     cadmm_problem *lib = NULL;
     cadmm_result rc = tu_problem_to_cadmm(p, &lib);
     if (rc != CADMM_OK)
-        fprintf(stderr, "building a problem failed: %s (%s)\n", code_name(rc), cadmm_last_error());
+        fprintf(stderr, "building a problem failed: %s (%s)\n", tu_result_name(rc), cadmm_last_error());
     REQUIRE(rc == CADMM_OK && lib != NULL);
     return lib;
 }
@@ -219,7 +108,7 @@ static void solve_into(const char *label, cadmm_solver *sv, const tu_problem *p,
     o->lambda = (double *)tu_calloc(0, sizeof(double));
     o->rc = cadmm_solver_solve(sv, &o->status);
     if (o->rc != CADMM_OK) {
-        TU_FAIL("%s: cadmm_solver_solve returned %s (%d): %s", label, code_name(o->rc),
+        TU_FAIL("%s: cadmm_solver_solve returned %s (%d): %s", label, tu_result_name(o->rc),
                 (int)o->rc, cadmm_solver_last_error(sv));
         cadmm_problem_free(lib);
         return;
@@ -231,11 +120,11 @@ static void solve_into(const char *label, cadmm_solver *sv, const tu_problem *p,
     o->e_ind = tu_problem_error(p, o->r, o->v, o->lambda);
     REQUIRE_OK(cadmm_problem_error(lib, o->r, o->u, o->v, &o->e_lib));
     printf("  %-56s %-15s %6llu iterations, stats.error %.3e, independent %.3e\n", label,
-           status_name(o->status), (unsigned long long)o->stats.iterations, o->stats.error,
+           tu_status_name(o->status), (unsigned long long)o->stats.iterations, o->stats.error,
            o->e_ind);
     if (expected >= 0)
         CHECK_MSG(o->status == expected, "%s: status %s, expected %s", label,
-                  status_name(o->status), status_name(expected));
+                  tu_status_name(o->status), tu_status_name(expected));
     tu_check_outcome(label, p, o, tol, 0.0, AGREE);
     cadmm_problem_free(lib);
 }
@@ -261,22 +150,22 @@ static void expect_refusing(const char *label, cadmm_solver *sv, const tu_proble
     double *r = (double *)tu_calloc(m, sizeof(double));
     cadmm_result rc = cadmm_solver_solve(sv, &status);
     CHECK_MSG(rc == code, "%s: solve after the refused update returned %s (%d), expected %s",
-              label, code_name(rc), (int)rc, code_name(code));
+              label, tu_result_name(rc), (int)rc, tu_result_name(code));
     CHECK_MSG(status == 99, "%s: the refused solve wrote status %d", label, (int)status);
     rc = cadmm_solver_warm_start(sv, last_r, NULL);
     CHECK_MSG(rc == code,
               "%s: warm_start after the refused update returned %s (%d), expected %s", label,
-              code_name(rc), (int)rc, code_name(code));
+              tu_result_name(rc), (int)rc, tu_result_name(code));
     memset(&st, 0, sizeof st);
     st.struct_size = sizeof st;
     rc = cadmm_solver_get_stats(sv, &st);
     CHECK_MSG(rc == CADMM_OK && st.status == last_status,
               "%s: get_stats after the refused update: %s, status %s (last solve: %s)", label,
-              code_name(rc), status_name(st.status), status_name(last_status));
+              tu_result_name(rc), tu_status_name(st.status), tu_status_name(last_status));
     rc = cadmm_solver_get_solution(sv, r, NULL, NULL);
     CHECK_MSG(rc == CADMM_OK && tu_diff_norm(r, last_r, m) == 0.0,
               "%s: get_solution after the refused update: %s, r moved by %.3e", label,
-              code_name(rc), tu_diff_norm(r, last_r, m));
+              tu_result_name(rc), tu_diff_norm(r, last_r, m));
     free(r);
 }
 
@@ -290,8 +179,8 @@ static void global_refusal(const char *label, cadmm_solver *sv, tu_problem *p, c
     char what[200];
     tu_outcome o;
     CHECK_MSG(rc == code, "update_values with %s returned %s (%d), expected %s (\"%s\")", label,
-              code_name(rc), (int)rc, code_name(code), cadmm_solver_last_error(sv));
-    printf("  refused %-34s %-32s \"%s\"\n", label, code_name(rc), cadmm_solver_last_error(sv));
+              tu_result_name(rc), (int)rc, tu_result_name(code), cadmm_solver_last_error(sv));
+    printf("  refused %-34s %-32s \"%s\"\n", label, tu_result_name(rc), cadmm_solver_last_error(sv));
     if (rc == CADMM_OK) return;
     CHECK_MSG(cadmm_solver_last_error(sv)[0] != '\0', "%s: no message", label);
     expect_refusing(label, sv, p, rc, last_r, *last_status);
@@ -313,7 +202,7 @@ static void global_refusal(const char *label, cadmm_solver *sv, tu_problem *p, c
 static void test_update_values_errors(void)
 {
     tu_rng g = tu_rng_new(20261125u);
-    tu_problem p = gen_global(&g, 3, 5, 0.5, 1);
+    tu_problem p = tu_gen_global(&g, 3, 5, 0.5, 1);
     cadmm_problem *lib = to_cadmm(&p);
     cadmm_settings *s = settings_tol(TOL);
     cadmm_solver *sv = NULL;
@@ -410,8 +299,8 @@ static void local_refusal(const char *label, cadmm_solver *sv, tu_problem *p, ca
     char what[200];
     tu_outcome o;
     CHECK_MSG(rc == code, "local update with %s returned %s (%d), expected %s (\"%s\")", label,
-              code_name(rc), (int)rc, code_name(code), cadmm_solver_last_error(sv));
-    printf("  refused %-34s %-32s \"%s\"\n", label, code_name(rc), cadmm_solver_last_error(sv));
+              tu_result_name(rc), (int)rc, tu_result_name(code), cadmm_solver_last_error(sv));
+    printf("  refused %-34s %-32s \"%s\"\n", label, tu_result_name(rc), cadmm_solver_last_error(sv));
     if (rc == CADMM_OK) return;
     expect_refusing(label, sv, p, rc, last_r, *last_status);
     for (size_t i = 0; i < 3 * p->nc; ++i) p->q[i] *= 1.1;
@@ -428,7 +317,7 @@ static void local_refusal(const char *label, cadmm_solver *sv, tu_problem *p, ca
 static void test_update_local_values(void)
 {
     tu_rng g = tu_rng_new(777u);
-    tu_problem p = gen_local(&g, 4, 0.5), next = gen_local(&g, 4, 0.3);
+    tu_problem p = tu_gen_local(&g, 4, 0.5), next = tu_gen_local(&g, 4, 0.3);
     cadmm_problem *lib = to_cadmm(&p), *lib_next;
     cadmm_settings *s = settings_tol(TOL);
     cadmm_solver *sv = NULL;
@@ -451,10 +340,10 @@ static void test_update_local_values(void)
     lib_next = to_cadmm(&p);
     tu_solve(&p, lib_next, s, &fresh);
     printf("  %-56s %-15s %6llu iterations, stats.error %.3e, independent %.3e\n",
-           "fresh solver on the same data", status_name(fresh.status),
+           "fresh solver on the same data", tu_status_name(fresh.status),
            (unsigned long long)fresh.stats.iterations, fresh.stats.error, fresh.e_ind);
     CHECK_MSG(fresh.status == CADMM_STATUS_SOLVED, "fresh solver: status %s",
-              status_name(fresh.status));
+              tu_status_name(fresh.status));
     tu_check_outcome("fresh solver on the updated data", &p, &fresh, TOL, 0.0, AGREE);
     REQUIRE(o.solved_call && fresh.solved_call);
     /* both answers are within TOL of a solution of the same (well-conditioned) problem */
@@ -535,10 +424,10 @@ static cadmm_stats anderson_run(const char *label, const tu_problem *p, const ca
     tu_solve(p, lib, s, &o);
     printf("  %-30s %-15s %6llu iterations, Anderson %llu accepted, %llu rejected, "
            "independent error %.3e\n",
-           label, o.solved_call ? status_name(o.status) : "(failed)",
+           label, o.solved_call ? tu_status_name(o.status) : "(failed)",
            (unsigned long long)o.stats.iterations, (unsigned long long)o.stats.anderson_accepted,
            (unsigned long long)o.stats.anderson_rejected, o.e_ind);
-    CHECK_MSG(o.status == CADMM_STATUS_SOLVED, "%s: status %s", label, status_name(o.status));
+    CHECK_MSG(o.status == CADMM_STATUS_SOLVED, "%s: status %s", label, tu_status_name(o.status));
     tu_check_outcome(label, p, &o, TOL, 0.0, AGREE);
     tu_outcome_free(&o);
     return o.stats;
@@ -547,7 +436,7 @@ static cadmm_stats anderson_run(const char *label, const tu_problem *p, const ca
 static void test_anderson_interval(void)
 {
     tu_rng g = tu_rng_new(4242u);
-    tu_problem p = gen_global(&g, 8, 12, 0.4, 0);
+    tu_problem p = tu_gen_global(&g, 8, 12, 0.4, 0);
     cadmm_problem *lib = to_cadmm(&p);
     cadmm_settings *s = settings_tol(TOL);
     cadmm_stats every1, every5, kept;
@@ -601,7 +490,7 @@ static void test_trace_phase(void)
     /* a stack of 20 bodies, each on the one below (n = 60, 60 contact rows): above the
        size (48) up to which an island starts with Newton on its dense form, so ADMM runs
        first, then hands over */
-    tu_problem p = gen_global(&g, 20, 20, 0.5, 1);
+    tu_problem p = tu_gen_global(&g, 20, 20, 0.5, 1);
     cadmm_problem *lib = to_cadmm(&p);
     cadmm_settings *s = settings_tol(1e-10);
     cadmm_solver *sv = NULL;
@@ -720,7 +609,7 @@ static void *thread_main(void *argp)
             msg == NULL || strcmp(msg, a->expected) != 0) {
             if (a->mismatches++ == 0)
                 snprintf(a->first_wrong, sizeof a->first_wrong, "round %d: %s, \"%s\"", k,
-                         code_name(rc), msg ? msg : "(NULL)");
+                         tu_result_name(rc), msg ? msg : "(NULL)");
         }
     }
     cadmm_settings_free(s);
@@ -770,7 +659,7 @@ static void test_time_limit_overrun(void)
 {
     const double limit = 0.05;
     tu_rng g = tu_rng_new(20261123u);
-    tu_problem p = gen_global(&g, 300, 600, 0.5, 0);
+    tu_problem p = tu_gen_global(&g, 300, 600, 0.5, 0);
     cadmm_problem *lib = to_cadmm(&p);
     cadmm_settings *s = settings_tol(1e-14);
     cadmm_solver *sv = NULL;

@@ -31,72 +31,6 @@
 
 /* ---- generated problems ------------------------------------------------------------------- */
 
-/* A global problem with nb free bodies of 3 velocities (n = 3 nb; M block diagonal SPD with
- * a coupling inside each block) and nc contacts, each between a body and the ground or two
- * bodies, in a random orthonormal-ish frame; f pushes the bodies into their contacts. */
-static tu_problem gen_global(tu_rng *g, size_t nb, size_t nc, double mu)
-{
-    tu_problem p;
-    size_t n = 3 * nb, m = 3 * nc;
-    double *Md = (double *)tu_calloc(n * n, sizeof(double));
-    double *Hd = (double *)tu_calloc(n * m, sizeof(double));
-    memset(&p, 0, sizeof p);
-    p.is_global = 1;
-    p.n = n;
-    p.nc = nc;
-    for (size_t b = 0; b < nb; ++b) {
-        double mass = tu_rng_range(g, 0.5, 4.0), c = tu_rng_range(g, -0.2, 0.2);
-        for (size_t i = 0; i < 3; ++i) Md[(3 * b + i) * n + 3 * b + i] = mass;
-        Md[(3 * b) * n + 3 * b + 1] = Md[(3 * b + 1) * n + 3 * b] = c * mass;
-    }
-    for (size_t k = 0; k < nc; ++k) {
-        size_t b1 = tu_rng_index(g, nb), b2 = tu_rng_index(g, nb + 1); /* b2 == nb: ground */
-        for (size_t i = 0; i < 3; ++i)
-            for (size_t j = 0; j < 3; ++j) {
-                double h = (i == j ? 1.0 : 0.0) + tu_rng_range(g, -0.3, 0.3);
-                Hd[(3 * b1 + i) * m + 3 * k + j] += h;
-                if (b2 < nb && b2 != b1) Hd[(3 * b2 + i) * m + 3 * k + j] -= h;
-            }
-    }
-    p.M = tu_csc_from_dense(n, n, Md);
-    p.H = tu_csc_from_dense(n, m, Hd);
-    p.f = (double *)tu_calloc(n, sizeof(double));
-    p.w = (double *)tu_calloc(m, sizeof(double));
-    p.mu = (double *)tu_calloc(nc, sizeof(double));
-    for (size_t i = 0; i < n; ++i) p.f[i] = tu_rng_range(g, -1.0, 1.0) - (i % 3 == 0 ? 2.0 : 0.0);
-    for (size_t i = 0; i < m; ++i) p.w[i] = tu_rng_range(g, -0.05, 0.05);
-    for (size_t k = 0; k < nc; ++k) p.mu[k] = mu;
-    free(Md);
-    free(Hd);
-    return p;
-}
-
-/* A local problem W = A^T A + 0.1 I (A random 3nc x 3nc), q random with q_N < 0. */
-static tu_problem gen_local(tu_rng *g, size_t nc, double mu)
-{
-    tu_problem p;
-    size_t m = 3 * nc;
-    double *A = (double *)tu_calloc(m * m, sizeof(double));
-    double *Wd = (double *)tu_calloc(m * m, sizeof(double));
-    memset(&p, 0, sizeof p);
-    p.nc = nc;
-    for (size_t i = 0; i < m * m; ++i) A[i] = tu_rng_range(g, -1.0, 1.0);
-    for (size_t i = 0; i < m; ++i)
-        for (size_t j = 0; j < m; ++j) {
-            double s = i == j ? 0.1 : 0.0;
-            for (size_t k = 0; k < m; ++k) s += A[k * m + i] * A[k * m + j];
-            Wd[i * m + j] = s;
-        }
-    p.W = tu_csc_from_dense(m, m, Wd);
-    p.q = (double *)tu_calloc(m, sizeof(double));
-    p.mu = (double *)tu_calloc(nc, sizeof(double));
-    for (size_t i = 0; i < m; ++i) p.q[i] = tu_rng_range(g, -1.0, 1.0) - (i % 3 == 0 ? 1.0 : 0.0);
-    for (size_t k = 0; k < nc; ++k) p.mu[k] = mu;
-    free(A);
-    free(Wd);
-    return p;
-}
-
 /* One contact whose first iterate overflows: diagonal M (or W) = 1e-160 I, H = I, and a
  * free velocity ~ 1e150 / 1e-160 = 1e310. */
 static tu_problem gen_overflow(int global)
@@ -214,7 +148,7 @@ int main(int argc, char **argv)
 
     printf("MAX_ITERATIONS\n");
     {
-        tu_problem gp = gen_global(&g, 8, 12, 0.4), lp = gen_local(&g, 5, 0.6);
+        tu_problem gp = tu_gen_global(&g, 8, 12, 0.4, 0), lp = tu_gen_local(&g, 5, 0.6);
         max_iterations_cases("generated global (24 velocities, 12 contacts)", &gp);
         max_iterations_cases("generated local (5 contacts)", &lp);
         tu_problem_free(&gp);
@@ -222,7 +156,7 @@ int main(int argc, char **argv)
     }
     printf("TIME_LIMIT\n");
     {
-        tu_problem gp = gen_global(&g, 300, 600, 0.5);
+        tu_problem gp = tu_gen_global(&g, 300, 600, 0.5, 0);
         time_limit_case("generated global (900 velocities, 600 contacts)", &gp);
         tu_problem_free(&gp);
     }

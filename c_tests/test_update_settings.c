@@ -25,41 +25,6 @@
 
 #define AGREE 1e-9 /* stats.error against the independent error, relative */
 
-static const char *code_name(cadmm_result c)
-{
-    switch (c) {
-    case CADMM_OK: return "CADMM_OK";
-    case CADMM_ERR_NULL_POINTER: return "CADMM_ERR_NULL_POINTER";
-    case CADMM_ERR_DIMENSION: return "CADMM_ERR_DIMENSION";
-    case CADMM_ERR_INVALID_CSC: return "CADMM_ERR_INVALID_CSC";
-    case CADMM_ERR_INVALID_VALUE: return "CADMM_ERR_INVALID_VALUE";
-    case CADMM_ERR_NOT_POSITIVE_DEFINITE: return "CADMM_ERR_NOT_POSITIVE_DEFINITE";
-    case CADMM_ERR_SINGULAR: return "CADMM_ERR_SINGULAR";
-    case CADMM_ERR_INVALID_SETTING: return "CADMM_ERR_INVALID_SETTING";
-    case CADMM_ERR_IO: return "CADMM_ERR_IO";
-    case CADMM_ERR_UNSUPPORTED: return "CADMM_ERR_UNSUPPORTED";
-    case CADMM_ERR_PANIC: return "CADMM_ERR_PANIC";
-    case CADMM_ERR_PATTERN_CHANGED: return "CADMM_ERR_PATTERN_CHANGED";
-    case CADMM_ERR_OUT_OF_MEMORY: return "CADMM_ERR_OUT_OF_MEMORY";
-    default: return "(unknown code)";
-    }
-}
-
-/* tu_status_name, and the status of a solver that has not solved yet. */
-static const char *status_name(cadmm_status s)
-{
-    return s == CADMM_STATUS_UNSOLVED ? "unsolved" : tu_status_name(s);
-}
-
-#define EXPECT_RC(expr, expected)                                                         \
-    do {                                                                                  \
-        cadmm_result rc_ = (expr);                                                        \
-        if (rc_ != (expected))                                                            \
-            TU_FAIL("%s returned %s (%d), expected %s (message: \"%s\")", #expr,          \
-                    code_name(rc_), (int)rc_, code_name(expected), cadmm_last_error());   \
-    } while (0)
-
-#define REQUIRE_OK(expr) REQUIRE((expr) == CADMM_OK)
 
 /* ---- problems ----------------------------------------------------------------------------- */
 
@@ -146,7 +111,7 @@ static cadmm_problem *to_cadmm(const tu_problem *p)
     cadmm_problem *lib = NULL;
     cadmm_result rc = tu_problem_to_cadmm(p, &lib);
     if (rc != CADMM_OK)
-        fprintf(stderr, "building a problem failed: %s (%s)\n", code_name(rc), cadmm_last_error());
+        fprintf(stderr, "building a problem failed: %s (%s)\n", tu_result_name(rc), cadmm_last_error());
     REQUIRE(rc == CADMM_OK && lib != NULL);
     return lib;
 }
@@ -192,7 +157,7 @@ static void update_ok(const char *label, cadmm_solver *sv, const knobs *k)
     cadmm_settings *s = make_settings(k);
     cadmm_result rc = cadmm_solver_update_settings(sv, s);
     CHECK_MSG(rc == CADMM_OK, "%s: update_settings returned %s (%d), expected CADMM_OK (\"%s\")",
-              label, code_name(rc), (int)rc, cadmm_solver_last_error(sv));
+              label, tu_result_name(rc), (int)rc, cadmm_solver_last_error(sv));
     cadmm_settings_free(s);
 }
 
@@ -210,7 +175,7 @@ static cadmm_stats solve_check(const char *label, cadmm_solver *sv, const tu_pro
     o.status = -1;
     o.rc = cadmm_solver_solve(sv, &o.status);
     if (o.rc != CADMM_OK) {
-        TU_FAIL("%s: cadmm_solver_solve returned %s (%d): %s", label, code_name(o.rc),
+        TU_FAIL("%s: cadmm_solver_solve returned %s (%d): %s", label, tu_result_name(o.rc),
                 (int)o.rc, cadmm_solver_last_error(sv));
         o.stats.status = -1;
         return o.stats;
@@ -226,10 +191,10 @@ static cadmm_stats solve_check(const char *label, cadmm_solver *sv, const tu_pro
     o.e_ind = tu_problem_error(p, o.r, o.v, o.lambda);
     REQUIRE_OK(cadmm_problem_error(lib, o.r, o.u, o.v, &o.e_lib));
     printf("  %-52s %-15s %6llu iterations, stats.error %.3e, independent %.3e\n", label,
-           status_name(o.status), (unsigned long long)o.stats.iterations, o.stats.error,
+           tu_status_name(o.status), (unsigned long long)o.stats.iterations, o.stats.error,
            o.e_ind);
-    CHECK_MSG(o.status == expected, "%s: status %s, expected %s", label, status_name(o.status),
-              status_name(expected));
+    CHECK_MSG(o.status == expected, "%s: status %s, expected %s", label, tu_status_name(o.status),
+              tu_status_name(expected));
     tu_check_outcome(label, p, &o, tol, 0.0, AGREE);
     tu_outcome_free(&o);
     return o.stats;
@@ -258,7 +223,7 @@ static void expect_refused(const char *label, const char *name, cadmm_solver *sv
     const char *msg = cadmm_solver_last_error(sv);
     CHECK_MSG(rc == CADMM_ERR_INVALID_SETTING,
               "update_settings with %s returned %s (%d), expected CADMM_ERR_INVALID_SETTING",
-              label, code_name(rc), (int)rc);
+              label, tu_result_name(rc), (int)rc);
     CHECK_MSG(msg != NULL && tu_has_word(msg, name),
               "update_settings with %s: the message \"%s\" does not name '%s'", label,
               msg ? msg : "(NULL)", name);
@@ -289,7 +254,7 @@ static void test_update_settings(void)
     REQUIRE_OK(cadmm_solver_get_stats(sv, &st));
     CHECK_MSG(st.status == CADMM_STATUS_UNSOLVED,
               "stats of a new solver: status %s (%d), expected unsolved (%d)",
-              status_name(st.status), (int)st.status, (int)CADMM_STATUS_UNSOLVED);
+              tu_status_name(st.status), (int)st.status, (int)CADMM_STATUS_UNSOLVED);
     CHECK_MSG(st.iterations == 0, "stats of a new solver: %llu iterations",
               (unsigned long long)st.iterations);
     loose = solve_check("1. tolerance 1e-3", sv, &p, lib, 1e-3, CADMM_STATUS_SOLVED);
@@ -450,22 +415,22 @@ static void pattern_case(const char *name, tu_problem *orig, tu_problem *extra,
     CHECK_MSG(rc == CADMM_ERR_PATTERN_CHANGED,
               "%s: update with one more non-zero returned %s (%d), expected "
               "CADMM_ERR_PATTERN_CHANGED (\"%s\")",
-              name, code_name(rc), (int)rc, cadmm_solver_last_error(sv));
-    printf("  one more non-zero:  %s \"%s\"\n", code_name(rc), cadmm_solver_last_error(sv));
+              name, tu_result_name(rc), (int)rc, cadmm_solver_last_error(sv));
+    printf("  one more non-zero:  %s \"%s\"\n", tu_result_name(rc), cadmm_solver_last_error(sv));
     CHECK_MSG(cadmm_solver_last_error(sv)[0] != '\0', "%s: no message after the refused update",
               name);
     rc = cadmm_solver_solve(sv, &status);
     CHECK_MSG(rc == CADMM_ERR_PATTERN_CHANGED,
               "%s: solve after the refused update returned %s (%d), expected "
               "CADMM_ERR_PATTERN_CHANGED",
-              name, code_name(rc), (int)rc);
+              name, tu_result_name(rc), (int)rc);
 
     rc = cadmm_solver_update(sv, lib_moved);
     CHECK_MSG(rc == CADMM_ERR_PATTERN_CHANGED,
               "%s: update with one non-zero moved returned %s (%d), expected "
               "CADMM_ERR_PATTERN_CHANGED (\"%s\")",
-              name, code_name(rc), (int)rc, cadmm_solver_last_error(sv));
-    printf("  one non-zero moved: %s \"%s\"\n", code_name(rc), cadmm_solver_last_error(sv));
+              name, tu_result_name(rc), (int)rc, cadmm_solver_last_error(sv));
+    printf("  one non-zero moved: %s \"%s\"\n", tu_result_name(rc), cadmm_solver_last_error(sv));
 
     /* the same pattern with other values is accepted and solved */
     if (orig->is_global)

@@ -759,8 +759,119 @@ static inline double tu_rng_range(tu_rng *g, double a, double b)
 /* Uniform integer in [0, n). */
 static inline size_t tu_rng_index(tu_rng *g, size_t n) { return (size_t)(tu_rng_next(g) % n); }
 
+/* ---- generated problems ------------------------------------------------------------------- */
+
+/* A global problem with nb free bodies of 3 velocities (M block diagonal SPD with a coupling
+ * inside each block) and nc contacts, contact k between body k mod nb and the body below it
+ * (the ground for the first nb contacts when chain != 0, otherwise a random body or the
+ * ground), frames the identity plus a perturbation; f pushes the bodies down and sideways. */
+static inline tu_problem tu_gen_global(tu_rng *g, size_t nb, size_t nc, double mu, int chain)
+{
+    tu_problem p;
+    size_t n = 3 * nb, m = 3 * nc;
+    double *Md = (double *)tu_calloc(n * n, sizeof(double));
+    double *Hd = (double *)tu_calloc(n * m, sizeof(double));
+    memset(&p, 0, sizeof p);
+    p.is_global = 1;
+    p.n = n;
+    p.nc = nc;
+    for (size_t b = 0; b < nb; ++b) {
+        double mass = tu_rng_range(g, 0.5, 4.0), c = tu_rng_range(g, -0.2, 0.2);
+        for (size_t i = 0; i < 3; ++i) Md[(3 * b + i) * n + 3 * b + i] = mass;
+        Md[(3 * b) * n + 3 * b + 1] = Md[(3 * b + 1) * n + 3 * b] = c * mass;
+    }
+    for (size_t k = 0; k < nc; ++k) {
+        size_t b1, b2; /* b2 == nb: the ground */
+        if (chain) {
+            b1 = k % nb;
+            b2 = k < nb ? (k == 0 ? nb : k - 1) : tu_rng_index(g, nb + 1);
+        } else {
+            b1 = tu_rng_index(g, nb);
+            b2 = tu_rng_index(g, nb + 1);
+        }
+        for (size_t i = 0; i < 3; ++i)
+            for (size_t j = 0; j < 3; ++j) {
+                double h = (i == j ? 1.0 : 0.0) + tu_rng_range(g, -0.3, 0.3);
+                Hd[(3 * b1 + i) * m + 3 * k + j] += h;
+                if (b2 < nb && b2 != b1) Hd[(3 * b2 + i) * m + 3 * k + j] -= h;
+            }
+    }
+    p.M = tu_csc_from_dense(n, n, Md);
+    p.H = tu_csc_from_dense(n, m, Hd);
+    p.f = (double *)tu_calloc(n, sizeof(double));
+    p.w = (double *)tu_calloc(m, sizeof(double));
+    p.mu = (double *)tu_calloc(nc, sizeof(double));
+    for (size_t i = 0; i < n; ++i) p.f[i] = tu_rng_range(g, -1.0, 1.0) - (i % 3 == 0 ? 2.0 : 0.0);
+    for (size_t i = 0; i < m; ++i) p.w[i] = tu_rng_range(g, -0.05, 0.05);
+    for (size_t k = 0; k < nc; ++k) p.mu[k] = mu;
+    free(Md);
+    free(Hd);
+    return p;
+}
+
+/* A local problem W = A^T A + 0.1 I (A random 3nc x 3nc, so W is dense: every entry is a
+ * non-zero), q random with q_N < 0. Two calls give the same pattern, other values. */
+static inline tu_problem tu_gen_local(tu_rng *g, size_t nc, double mu)
+{
+    tu_problem p;
+    size_t m = 3 * nc;
+    double *A = (double *)tu_calloc(m * m, sizeof(double));
+    double *Wd = (double *)tu_calloc(m * m, sizeof(double));
+    memset(&p, 0, sizeof p);
+    p.nc = nc;
+    for (size_t i = 0; i < m * m; ++i) A[i] = tu_rng_range(g, -1.0, 1.0);
+    for (size_t i = 0; i < m; ++i)
+        for (size_t j = 0; j < m; ++j) {
+            double s = i == j ? 0.1 : 0.0;
+            for (size_t k = 0; k < m; ++k) s += A[k * m + i] * A[k * m + j];
+            Wd[i * m + j] = s;
+        }
+    p.W = tu_csc_from_dense(m, m, Wd);
+    REQUIRE((size_t)p.W.colptr[m] == m * m);
+    p.q = (double *)tu_calloc(m, sizeof(double));
+    p.mu = (double *)tu_calloc(nc, sizeof(double));
+    for (size_t i = 0; i < m; ++i) p.q[i] = tu_rng_range(g, -1.0, 1.0) - (i % 3 == 0 ? 1.0 : 0.0);
+    for (size_t k = 0; k < nc; ++k) p.mu[k] = mu;
+    free(A);
+    free(Wd);
+    return p;
+}
+
 /* ---- solving a tu_problem through the C API (needs cadmm.h included first) ------------- */
 #ifdef CADMM_H
+
+/* Name of a cadmm_result code. */
+static inline const char *tu_result_name(cadmm_result c)
+{
+    switch (c) {
+    case CADMM_OK: return "CADMM_OK";
+    case CADMM_ERR_NULL_POINTER: return "CADMM_ERR_NULL_POINTER";
+    case CADMM_ERR_DIMENSION: return "CADMM_ERR_DIMENSION";
+    case CADMM_ERR_INVALID_CSC: return "CADMM_ERR_INVALID_CSC";
+    case CADMM_ERR_INVALID_VALUE: return "CADMM_ERR_INVALID_VALUE";
+    case CADMM_ERR_NOT_POSITIVE_DEFINITE: return "CADMM_ERR_NOT_POSITIVE_DEFINITE";
+    case CADMM_ERR_SINGULAR: return "CADMM_ERR_SINGULAR";
+    case CADMM_ERR_INVALID_SETTING: return "CADMM_ERR_INVALID_SETTING";
+    case CADMM_ERR_IO: return "CADMM_ERR_IO";
+    case CADMM_ERR_UNSUPPORTED: return "CADMM_ERR_UNSUPPORTED";
+    case CADMM_ERR_PANIC: return "CADMM_ERR_PANIC";
+    case CADMM_ERR_PATTERN_CHANGED: return "CADMM_ERR_PATTERN_CHANGED";
+    case CADMM_ERR_OUT_OF_MEMORY: return "CADMM_ERR_OUT_OF_MEMORY";
+    default: return "(unknown code)";
+    }
+}
+
+/* A call must return `expected`; the failure names both codes and the last error message. */
+#define EXPECT_RC(expr, expected)                                                         \
+    do {                                                                                  \
+        cadmm_result rc_ = (expr);                                                        \
+        if (rc_ != (expected))                                                            \
+            TU_FAIL("%s returned %s (%d), expected %s (message: \"%s\")", #expr,          \
+                    tu_result_name(rc_), (int)rc_, tu_result_name(expected), cadmm_last_error());   \
+    } while (0)
+
+#define REQUIRE_OK(expr) REQUIRE((expr) == CADMM_OK)
+
 
 /* Builds the library's copy of `p` (global or local, with its joints). On failure returns
  * the code and leaves *out NULL. */

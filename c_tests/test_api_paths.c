@@ -72,16 +72,6 @@ static double *dup(const double *x, size_t n)
     return y;
 }
 
-static cadmm_problem *to_cadmm(const tu_problem *p)
-{
-    cadmm_problem *lib = NULL;
-    cadmm_result rc = tu_problem_to_cadmm(p, &lib);
-    if (rc != CADMM_OK)
-        fprintf(stderr, "building a problem failed: %s (%s)\n", tu_result_name(rc), cadmm_last_error());
-    REQUIRE(rc == CADMM_OK && lib != NULL);
-    return lib;
-}
-
 static cadmm_settings *settings_tol(double tol)
 {
     cadmm_settings *s = NULL;
@@ -99,7 +89,7 @@ static void solve_into(const char *label, cadmm_solver *sv, const tu_problem *p,
                        cadmm_status expected, tu_outcome *o)
 {
     size_t m = 3 * p->nc;
-    cadmm_problem *lib = to_cadmm(p);
+    cadmm_problem *lib = tu_require_problem(p);
     memset(o, 0, sizeof *o);
     o->status = -1;
     o->r = (double *)tu_calloc(m, sizeof(double));
@@ -203,7 +193,7 @@ static void test_update_values_errors(void)
 {
     tu_rng g = tu_rng_new(20261125u);
     tu_problem p = tu_gen_global(&g, 3, 5, 0.5, 1);
-    cadmm_problem *lib = to_cadmm(&p);
+    cadmm_problem *lib = tu_require_problem(&p);
     cadmm_settings *s = settings_tol(TOL);
     cadmm_solver *sv = NULL;
     size_t m = 3 * p.nc, mnnz = nnz(&p.M), hnnz = nnz(&p.H);
@@ -318,7 +308,7 @@ static void test_update_local_values(void)
 {
     tu_rng g = tu_rng_new(777u);
     tu_problem p = tu_gen_local(&g, 4, 0.5), next = tu_gen_local(&g, 4, 0.3);
-    cadmm_problem *lib = to_cadmm(&p), *lib_next;
+    cadmm_problem *lib = tu_require_problem(&p), *lib_next;
     cadmm_settings *s = settings_tol(TOL);
     cadmm_solver *sv = NULL;
     size_t m = 3 * p.nc, wnnz = nnz(&p.W);
@@ -337,7 +327,7 @@ static void test_update_local_values(void)
     p = next;
     memset(&next, 0, sizeof next);
     solve_into("updated W, q, mu", sv, &p, TOL, CADMM_STATUS_SOLVED, &o);
-    lib_next = to_cadmm(&p);
+    lib_next = tu_require_problem(&p);
     tu_solve(&p, lib_next, s, &fresh);
     printf("  %-56s %-15s %6llu iterations, stats.error %.3e, independent %.3e\n",
            "fresh solver on the same data", tu_status_name(fresh.status),
@@ -437,7 +427,7 @@ static void test_anderson_interval(void)
 {
     tu_rng g = tu_rng_new(4242u);
     tu_problem p = tu_gen_global(&g, 8, 12, 0.4, 0);
-    cadmm_problem *lib = to_cadmm(&p);
+    cadmm_problem *lib = tu_require_problem(&p);
     cadmm_settings *s = settings_tol(TOL);
     cadmm_stats every1, every5, kept;
     uint64_t tries1, tries5, tries_kept;
@@ -491,7 +481,7 @@ static void test_trace_phase(void)
        size (48) up to which an island starts with Newton on its dense form, so ADMM runs
        first, then hands over */
     tu_problem p = tu_gen_global(&g, 20, 20, 0.5, 1);
-    cadmm_problem *lib = to_cadmm(&p);
+    cadmm_problem *lib = tu_require_problem(&p);
     cadmm_settings *s = settings_tol(1e-10);
     cadmm_solver *sv = NULL;
     cadmm_stats st;
@@ -660,7 +650,7 @@ static void test_time_limit_overrun(void)
     const double limit = 0.05;
     tu_rng g = tu_rng_new(20261123u);
     tu_problem p = tu_gen_global(&g, 300, 600, 0.5, 0);
-    cadmm_problem *lib = to_cadmm(&p);
+    cadmm_problem *lib = tu_require_problem(&p);
     cadmm_settings *s = settings_tol(1e-14);
     cadmm_solver *sv = NULL;
     double one_iteration = INFINITY, wall, t0, scale, bound;

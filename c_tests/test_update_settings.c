@@ -106,16 +106,6 @@ static tu_problem coupled_local_problem(enum pattern pat)
     return p;
 }
 
-static cadmm_problem *to_cadmm(const tu_problem *p)
-{
-    cadmm_problem *lib = NULL;
-    cadmm_result rc = tu_problem_to_cadmm(p, &lib);
-    if (rc != CADMM_OK)
-        fprintf(stderr, "building a problem failed: %s (%s)\n", tu_result_name(rc), cadmm_last_error());
-    REQUIRE(rc == CADMM_OK && lib != NULL);
-    return lib;
-}
-
 /* ---- settings ------------------------------------------------------------------------------ */
 
 /* The settings update_settings may change; everything else keeps its default. */
@@ -237,7 +227,7 @@ static void expect_refused(const char *label, const char *name, cadmm_solver *sv
 static void test_update_settings(void)
 {
     tu_problem p = stack_problem(ORIGINAL);
-    cadmm_problem *lib = to_cadmm(&p);
+    cadmm_problem *lib = tu_require_problem(&p);
     knobs k = default_knobs(1e-3);
     cadmm_settings *s = make_settings(&k);
     cadmm_solver *sv = NULL;
@@ -392,8 +382,8 @@ static void test_update_settings(void)
 static void pattern_case(const char *name, tu_problem *orig, tu_problem *extra,
                          tu_problem *moved)
 {
-    cadmm_problem *lib = to_cadmm(orig), *lib_extra = to_cadmm(extra),
-                  *lib_moved = to_cadmm(moved), *lib_vals;
+    cadmm_problem *lib = tu_require_problem(orig), *lib_extra = tu_require_problem(extra),
+                  *lib_moved = tu_require_problem(moved), *lib_vals;
     knobs k = default_knobs(1e-8);
     cadmm_settings *s = make_settings(&k);
     cadmm_solver *sv = NULL;
@@ -437,7 +427,7 @@ static void pattern_case(const char *name, tu_problem *orig, tu_problem *extra,
         for (size_t i = 0; i < orig->n; ++i) orig->f[i] *= 1.5;
     else
         for (size_t i = 0; i < 3 * orig->nc; ++i) orig->q[i] *= 1.5;
-    lib_vals = to_cadmm(orig);
+    lib_vals = tu_require_problem(orig);
     EXPECT_RC(cadmm_solver_update(sv, lib_vals), CADMM_OK);
     snprintf(label, sizeof label, "%s, same pattern, other values", name);
     solve_check(label, sv, orig, lib_vals, 1e-8, CADMM_STATUS_SOLVED);

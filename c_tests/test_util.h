@@ -897,6 +897,17 @@ static inline cadmm_result tu_problem_to_cadmm(const tu_problem *p, cadmm_proble
     return rc;
 }
 
+/* tu_problem_to_cadmm that must succeed: a failure stops the test with the library's message. */
+static inline cadmm_problem *tu_require_problem(const tu_problem *p)
+{
+    cadmm_problem *lib = NULL;
+    cadmm_result rc = tu_problem_to_cadmm(p, &lib);
+    if (rc != CADMM_OK)
+        fprintf(stderr, "building a problem failed: %s (%s)\n", tu_result_name(rc), cadmm_last_error());
+    REQUIRE(rc == CADMM_OK && lib != NULL);
+    return lib;
+}
+
 /* What one solve returned. */
 typedef struct tu_outcome {
     cadmm_result rc;  /* of cadmm_solver_new, then of cadmm_solver_solve */

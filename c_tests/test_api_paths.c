@@ -24,6 +24,10 @@
  *      the failing calls), each with another error, many rounds; each reads its own message.
  *   6. A time limit of 0.05 s on a generated global problem of 600 contacts: TIME_LIMIT, and
  *      the wall time of cadmm_solver_solve stays within a stated bound of the limit.
+ *   7. cadmm_settings_set_linear_solver: "direct", "iterative" and "auto" each solve a
+ *      generated problem; the matrix-free backend counts conjugate-gradient iterations in the
+ *      statistics and runs no Newton phase, the direct one counts none; a bad name ->
+ *      CADMM_ERR_INVALID_SETTING, NULL settings or name -> CADMM_ERR_NULL_POINTER.
  *
  * Every solve is checked with tu_check_outcome (test_util.h's independent error measure).
  *
@@ -712,17 +716,63 @@ static void test_time_limit_overrun(void)
     tu_problem_free(&p);
 }
 
+/* ---- case 7: the v-update backends ------------------------------------------------------ */
+
+/* Each backend solves a generated problem to TOL by the independent measure; the matrix-free
+ * one really runs conjugate gradients (and no Newton phase), the direct one none; a bad name
+ * is refused and leaves the settings as they were. */
+static void test_linear_solver(void)
+{
+    static const char *const names[] = {"direct", "iterative", "auto"};
+    tu_rng g = tu_rng_new(2718u);
+    tu_problem p = tu_gen_global(&g, 20, 30, 0.4, 0);
+    cadmm_problem *lib = tu_require_problem(&p);
+    cadmm_settings *s = settings_tol(TOL);
+
+    printf("7. v-update backends (global, %zu bodies' velocities, %zu contacts):\n", p.n, p.nc);
+    for (size_t k = 0; k < sizeof names / sizeof names[0]; ++k) {
+        tu_outcome o;
+        REQUIRE_OK(cadmm_settings_set_linear_solver(s, names[k]));
+        tu_solve(&p, lib, s, &o);
+        printf("  %-10s %-15s %6llu iterations, %llu conjugate-gradient iterations, "
+               "independent error %.3e\n", names[k],
+               o.solved_call ? tu_status_name(o.status) : "(failed)",
+               (unsigned long long)o.stats.iterations,
+               (unsigned long long)o.stats.linear_iterations, o.e_ind);
+        CHECK_MSG(o.status == CADMM_STATUS_SOLVED, "%s: status %s", names[k],
+                  tu_status_name(o.status));
+        tu_check_outcome(names[k], &p, &o, TOL, 0.0, AGREE);
+        if (k == 0)
+            CHECK_MSG(o.stats.linear_iterations == 0, "direct: %llu CG iterations",
+                      (unsigned long long)o.stats.linear_iterations);
+        if (k == 1)
+            CHECK_MSG(o.stats.linear_iterations > 0 && o.stats.newton_iterations == 0,
+                      "iterative: %llu CG iterations, %llu Newton iterations",
+                      (unsigned long long)o.stats.linear_iterations,
+                      (unsigned long long)o.stats.newton_iterations);
+        tu_outcome_free(&o);
+    }
+    EXPECT_RC(cadmm_settings_set_linear_solver(s, "cholesky"), CADMM_ERR_INVALID_SETTING);
+    EXPECT_RC(cadmm_settings_set_linear_solver(s, NULL), CADMM_ERR_NULL_POINTER);
+    EXPECT_RC(cadmm_settings_set_linear_solver(NULL, "auto"), CADMM_ERR_NULL_POINTER);
+
+    cadmm_settings_free(s);
+    cadmm_problem_free(lib);
+    tu_problem_free(&p);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
     (void)argv;
     printf("cadmm %s: update_values / update_local_values refusals, Anderson interval, trace "
-           "phases, per-thread last error, time limit overrun\n", cadmm_version());
+           "phases, per-thread last error, time limit overrun, v-update backends\n", cadmm_version());
     test_update_values_errors();
     test_update_local_values();
     test_anderson_interval();
     test_trace_phase();
     test_last_error_threads();
     test_time_limit_overrun();
+    test_linear_solver();
     return tu_finish("test_api_paths");
 }

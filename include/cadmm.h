@@ -199,6 +199,11 @@ typedef struct cadmm_stats {
      * contact of an island whose contacts are all frictionless.
      */
     uint64_t rows;
+    /**
+     * Conjugate-gradient iterations of the matrix-free v-updates (0 when the systems are
+     * factorized; see `cadmm_settings_set_linear_solver`).
+     */
+    uint64_t linear_iterations;
 } cadmm_stats;
 
 /**
@@ -534,6 +539,17 @@ cadmm_result cadmm_settings_set_anderson_interval(struct cadmm_settings *s, uint
  * `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).
  */
 cadmm_result cadmm_settings_set_s_update(struct cadmm_settings *s, const char *mode);
+
+/**
+ * Chooses how the v-update systems `M + rho H H^T` of the global form are solved:
+ * "auto" (the default: per island, a cost model weighs the factor's predicted fill
+ * against the products of conjugate gradients), "direct" (factorized) or "iterative"
+ * (matrix-free preconditioned conjugate gradients, without the Newton phase; systems
+ * with joints or a non-symmetric M stay direct). The statistics' `linear_iterations`
+ * counts the conjugate-gradient iterations. Errors: `CADMM_ERR_NULL_POINTER` (`s` or
+ * `name`), `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).
+ */
+cadmm_result cadmm_settings_set_linear_solver(struct cadmm_settings *s, const char *name);
 
 /**
  * Switches the per-iteration trace on or off (default off); read it with

@@ -35,6 +35,8 @@ struct Run {
     error: f64,
     /// The next phase is the first Newton phase of a small problem.
     newton_first: bool,
+    /// The form's conjugate-gradient count when the solve started.
+    linear_iterations: usize,
 }
 
 /// Solves one coupled frictional contact problem, and its successors with the same pattern.
@@ -61,18 +63,21 @@ impl CoupledSolver {
     ) -> Result<Self, Error> {
         let t0 = Instant::now();
         settings.validate()?;
-        let resolved = settings.resolved();
+        let mut resolved = settings.resolved();
         let rho0 = initial_rho(resolved.initial_rho, &problem)?;
         let l = 3 * problem.n_contacts();
         let joints = match &problem {
             Problem::Global(g) => g.n_joints(),
             Problem::Local(_) => 0,
         };
-        let newton_first = first == NewtonFirst::IfSmall
-            && resolved.newton == NewtonUse::Polish
-            && l > 0
-            && problem.n_velocities() + l + joints <= DENSE_MAX;
-        let mut form = contact_form(problem)?;
+        let small = problem.n_velocities() + l + joints <= DENSE_MAX;
+        let mut form = contact_form(problem, settings.linear_solver)?;
+        if form.matrix_free() && resolved.newton == NewtonUse::Polish {
+            // A Newton phase would factorize what the matrix-free backend avoids.
+            resolved.newton = NewtonUse::Off;
+        }
+        let newton_first =
+            first == NewtonFirst::IfSmall && resolved.newton == NewtonUse::Polish && l > 0 && small;
         form.set_rho(rho0)?;
         let state = EngineState {
             y: vec![0.0; l],
@@ -198,6 +203,7 @@ impl CoupledSolver {
             },
             error: f64::INFINITY,
             newton_first: self.newton_first,
+            linear_iterations: self.form.linear_iterations(),
         };
         // ADMM and Newton phases alternate until one meets the tolerance or a limit is hit;
         // the iteration limit counts the steps of both. A small problem starts with Newton.
@@ -364,6 +370,7 @@ impl CoupledSolver {
             refactorizations: self.form.refactorizations(),
             rows: self.form.rows(),
             solve_seconds: run.t0.elapsed().as_secs_f64(),
+            linear_iterations: self.form.linear_iterations() - run.linear_iterations,
             ..run.stats
         };
         status

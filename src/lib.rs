@@ -53,6 +53,6 @@ pub use cone::{de_saxce, project_cone, project_dual_cone};
 pub use csc::CscMatrix;
 pub use problem::{GlobalProblem, Joints, LocalProblem, NewValues, Problem};
 pub use settings::InitialRho;
-pub use settings::{NewtonUse, Resolved, Settings, VariantChoice};
+pub use settings::{LinearSolver, NewtonUse, Resolved, Settings, VariantChoice};
 pub use solver::Solver;
 pub use types::{Error, Phase, Solution, Stats, Status, TracePoint};

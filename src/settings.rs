@@ -42,6 +42,34 @@ pub enum NewtonUse {
     Alone,
 }
 
+/// How the global form's v-update systems `M + rho H H^T` are solved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinearSolver {
+    /// Chosen per island by a cost model: the direct factor unless its predicted fill makes
+    /// each solve cost more than the iterative backend's products (docs/algorithms.md §14).
+    Auto,
+    /// Sparse (or dense, for small islands) factorization.
+    Direct,
+    /// Matrix-free preconditioned conjugate gradients, with no Newton phase (its systems
+    /// are factorized); the local form and systems with joints stay direct.
+    Iterative,
+}
+
+impl LinearSolver {
+    /// Parses `auto`, `direct` or `iterative`.
+    pub fn from_name(name: &str) -> Result<Self, Error> {
+        match name {
+            "auto" => Ok(LinearSolver::Auto),
+            "direct" => Ok(LinearSolver::Direct),
+            "iterative" => Ok(LinearSolver::Iterative),
+            _ => Err(Error::InvalidSetting {
+                name: "linear_solver",
+                reason: format!("expected auto, direct or iterative, got {name}"),
+            }),
+        }
+    }
+}
+
 /// Settings of a solve.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -75,6 +103,8 @@ pub struct Settings {
     /// other on the caller's thread; more starts that many scoped threads for each solve
     /// that has several islands (no pool is kept). The results do not depend on it.
     pub threads: usize,
+    /// How the v-update systems are solved. Default `Auto`.
+    pub linear_solver: LinearSolver,
 }
 
 impl Default for Settings {
@@ -92,6 +122,7 @@ impl Default for Settings {
             newton_polish: None,
             islands: true,
             threads: 1,
+            linear_solver: LinearSolver::Auto,
         }
     }
 }
@@ -179,7 +210,7 @@ impl Settings {
     /// path the solver was built with; changing them needs a new solver.
     pub fn check_update(&self, next: &Settings) -> Result<(), Error> {
         next.validate()?;
-        let fixed: [(&'static str, bool); 7] = [
+        let fixed: [(&'static str, bool); 8] = [
             ("variant", self.variant == next.variant),
             ("initial_rho", self.initial_rho == next.initial_rho),
             ("s_update", self.s_update == next.s_update),
@@ -190,6 +221,7 @@ impl Settings {
             ),
             ("newton_polish", self.newton_polish == next.newton_polish),
             ("islands", self.islands == next.islands),
+            ("linear_solver", self.linear_solver == next.linear_solver),
         ];
         match fixed.iter().find(|(_, same)| !same) {
             Some(&(name, _)) => Err(Error::InvalidSetting {

@@ -204,6 +204,7 @@ impl Solver {
                     stats.newton_factorizations += p.newton_factorizations;
                     stats.newton_phases += p.newton_phases;
                     stats.newton_fallbacks += p.newton_fallbacks;
+                    stats.linear_iterations += p.linear_iterations;
                 }
                 stats.failed_island = (status != Status::Solved)
                     .then(|| {

@@ -459,6 +459,7 @@ fn add_solve(
         newton_factorizations: total.newton_factorizations + s.newton_factorizations,
         newton_phases: total.newton_phases + s.newton_phases,
         newton_fallbacks: total.newton_fallbacks + s.newton_fallbacks,
+        linear_iterations: total.linear_iterations + s.linear_iterations,
         solve_seconds: total.solve_seconds + s.solve_seconds,
         setup_seconds: total.setup_seconds,
         ..*s

@@ -132,3 +132,44 @@ pub(crate) const NEWTON: NewtonTuning = NewtonTuning {
     window: 8,
     confirm: 2,
 };
+
+/// The iterative backend solves each v-update to a residual of this share of the last
+/// measured error (in the units of the measure's equation term, which the residual adds
+/// to): the inexact steps then cost at most a tenth of the error ADMM is driving down.
+pub const PCG_ERROR_SHARE: f64 = 0.1;
+
+/// ... and, before a first measure, to this residual relative to the right-hand side.
+pub const PCG_FIRST_RELATIVE: f64 = 1e-2;
+
+/// No v-update is asked for a relative residual below this (round-off in the products).
+pub const PCG_RELATIVE_FLOOR: f64 = 1e-14;
+
+/// Most conjugate-gradient iterations per v-update; a solve stopped there is inexact, which
+/// the next measured error shows (block Jacobi reaches 1e-8 from zero in about 30 on the
+/// piles).
+pub const PCG_MAX_ITERATIONS: usize = 300;
+
+/// Conjugate-gradient iterations per warm-started v-update that the `auto` cost model
+/// expects (docs/algorithms.md §14).
+pub const PCG_EXPECTED_ITERATIONS: f64 = 10.0;
+
+/// `auto` never factorizes a v-update system whose factor holds more entries than this
+/// (400 MB per factor; the solver keeps up to three, one per recent rho).
+pub const FACTOR_MAX_ENTRIES: usize = 50_000_000;
+
+/// `auto` keeps factorizing v-update systems whose factor holds fewer entries than this:
+/// such a factorization costs milliseconds, and the Newton phase that the direct backend
+/// keeps finishes tight solves in far fewer iterations than ADMM alone (384-contact sphere
+/// lattice at 1e-8: 293 iterations, 0.08 s factorized with Newton, against 8 205
+/// iterations, 0.71 s matrix-free; its factor holds 1.0e5 entries, that of the
+/// 2 800-contact 10 x 10 x 10 lattice 2.1e6).
+pub const MATRIX_FREE_MIN_FILL: usize = 1_000_000;
+
+/// Each matrix-free v-update shrinks the residual of its warm start (the last velocity) by
+/// this factor, unless it is already far below the error (see [`PCG_ERROR_SHARE`]): the
+/// error of each inexact step is then a fraction of the step, which vanishes as ADMM
+/// converges (errors tied to the error alone need not be summable). On the 2 800-contact
+/// lattice pile ADMM alone took 1 180 iterations to 1e-4 and 16 470 to 1e-6 (with the error
+/// rule alone 1 290 and 8 270; exact solves 22 565 to 1e-6): its count there moves by 2x
+/// with any change of its path, so the rule is kept for its guarantee.
+pub const PCG_REDUCTION: f64 = 0.1;

@@ -1,6 +1,6 @@
 //! `cadmm solve`: solve one FCLib file and print a one-line JSON summary.
 
-use cadmm::{fclib, InitialRho, SUpdate, Settings, Solver, VariantChoice};
+use cadmm::{fclib, InitialRho, LinearSolver, SUpdate, Settings, Solver, VariantChoice};
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -43,6 +43,10 @@ pub struct SolveArgs {
     /// Threads that solve islands side by side.
     #[arg(long, default_value_t = 1)]
     threads: usize,
+    /// v-update systems: auto (by a cost model), direct (factorized) or iterative
+    /// (matrix-free conjugate gradients, no Newton phase).
+    #[arg(long, default_value = "auto")]
+    linear_solver: String,
     /// Warm start from /solution/{r, v} of this HDF5 file (as `--out` writes it).
     #[arg(long)]
     warm: Option<PathBuf>,
@@ -106,6 +110,7 @@ fn settings_from(a: &SolveArgs) -> Result<Settings, cadmm::Error> {
         newton_polish,
         islands,
         threads: a.threads,
+        linear_solver: LinearSolver::from_name(&a.linear_solver)?,
     };
     s.validate()?;
     Ok(s)
@@ -146,7 +151,7 @@ pub fn run(a: SolveArgs) -> ExitCode {
         }
         let r = solver.resolved();
         Ok(format!(
-            "{{\"file\": \"{}\", \"form\": \"{form}\", \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"seconds\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"rho\": {}, \"refactorizations\": {}, \"variant\": \"{}\", \"initial_rho\": \"{}\", \"anderson\": {}, \"anderson_accepted\": {}, \"anderson_rejected\": {}, \"newton\": \"{:?}\", \"newton_iterations\": {}, \"newton_factorizations\": {}, \"newton_phases\": {}, \"newton_fallbacks\": {}, \"islands\": {}}}",
+            "{{\"file\": \"{}\", \"form\": \"{form}\", \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"seconds\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"rho\": {}, \"refactorizations\": {}, \"variant\": \"{}\", \"initial_rho\": \"{}\", \"anderson\": {}, \"anderson_accepted\": {}, \"anderson_rejected\": {}, \"newton\": \"{:?}\", \"newton_iterations\": {}, \"newton_factorizations\": {}, \"newton_phases\": {}, \"newton_fallbacks\": {}, \"islands\": {}, \"linear_iterations\": {}}}",
             file.display().to_string().replace('\\', "\\\\").replace('"', "\\\""),
             status.name(),
             st.iterations,
@@ -167,6 +172,7 @@ pub fn run(a: SolveArgs) -> ExitCode {
             st.newton_phases,
             st.newton_fallbacks,
             st.islands,
+            st.linear_iterations,
         ))
     };
     match run() {

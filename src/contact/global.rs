@@ -13,15 +13,19 @@ use crate::certificate::run_off;
 use crate::cone::{get3, project_dual_cone, set3};
 use crate::csc::norm2;
 use crate::linsys::param_matrix::{gram_triplets, triplets, Assembly};
-use crate::linsys::{Factor, FactorKind, ParamMatrix};
+use crate::linsys::{Factor, FactorKind, Gram, GramPcg, ParamMatrix, PcgStop};
 use crate::measure::{global_error_with, Floors, MeasureWork};
 use crate::newton::{GlobalNewton, NewtonOutcome};
 use crate::problem::{GlobalProblem, Problem};
+use crate::settings::LinearSolver;
+use crate::tuning::{
+    FACTOR_MAX_ENTRIES, JOINT_DELTA, MATRIX_FREE_MIN_FILL, PCG_ERROR_SHARE,
+    PCG_EXPECTED_ITERATIONS, PCG_FIRST_RELATIVE, PCG_MAX_ITERATIONS, PCG_REDUCTION,
+    PCG_RELATIVE_FLOOR,
+};
 use crate::types::Error;
 use crate::types::Solution;
 use std::time::Instant;
-
-use crate::tuning::JOINT_DELTA;
 
 /// The global contact problem as an ADMM splitting.
 pub struct GlobalSplitting {
@@ -29,9 +33,8 @@ pub struct GlobalSplitting {
     /// The symmetric part of M alone, refactorized at each update (see [`mass_factor`]).
     mass: Factor,
     mass_assembly: Assembly,
-    factor: Factor,
-    /// Where M, G and `H H^T` go in the system matrix (new values without re-sorting).
-    assembly: Assembly,
+    /// The v-update system and how it is solved.
+    system: VelocitySystem,
     /// Mirror map of M when the system stores its upper triangle only (new values are
     /// checked to be still symmetric).
     m_mirror: Option<Vec<usize>>,
@@ -50,23 +53,34 @@ pub struct GlobalSplitting {
     r: Vec<f64>,
     lambda: Vec<f64>,
     measure: MeasureWork,
+    /// The last error measured, which sets how exactly the iterative backend solves
+    /// (infinite until a first measure; see [`GlobalSplitting::inexact_tolerance`]).
+    last_error: f64,
     /// The Newton phase, built on first use and kept across updates.
     newton: Option<GlobalNewton>,
+}
+
+/// The v-update system and its backend.
+enum VelocitySystem {
+    /// Factorized (dense or sparse): the assembled matrix, and where M, G and `H H^T` go in
+    /// it (new values without re-sorting).
+    Direct { factor: Factor, assembly: Assembly },
+    /// Matrix-free conjugate gradients on `M + rho H H^T` (symmetric M, no joints).
+    Iterative(GramPcg),
 }
 
 impl GlobalSplitting {
     /// Analyses and factorizes `M` (to check it is positive definite) and prepares the
     /// v-update system.
-    pub(crate) fn new(p: GlobalProblem) -> Result<Self, Error> {
+    pub(crate) fn new(p: GlobalProblem, backend: LinearSolver) -> Result<Self, Error> {
         let n = p.n();
         let m = 3 * p.n_contacts();
         // M alone first: a clear error when M is not positive definite.
         let (mass, mass_assembly) = mass_factor(&p)?;
         let active = active_rows(&p.mu);
-        let (matrix, assembly, kind) = system_matrix(&p, &active);
-        let dim = matrix.n;
+        let (system, kind) = velocity_system(&p, &active, backend)?;
+        let dim = n + p.n_joints();
         let m_mirror = (kind != FactorKind::Lu).then(|| p.m.mirror_map());
-        let factor = Factor::new("M + rho H H^T", matrix, kind)?;
         let mut phi = vec![0.0; m];
         initial_shift(&p.mu, p.h.norm_fro(), &mut phi);
         let c = p.w.iter().zip(&phi).map(|(w, s)| -w - s).collect();
@@ -74,8 +88,7 @@ impl GlobalSplitting {
         Ok(Self {
             mass,
             mass_assembly,
-            factor,
-            assembly,
+            system,
             m_mirror,
             sol: vec![0.0; dim],
             rhs: vec![0.0; dim],
@@ -88,6 +101,7 @@ impl GlobalSplitting {
             active,
             lambda: vec![0.0; dim - n],
             measure,
+            last_error: f64::INFINITY,
             newton: None,
             p,
         })
@@ -114,18 +128,21 @@ impl GlobalSplitting {
             .is_some_and(|mirror| !self.p.m.is_symmetric_with(mirror));
         if asymmetric || rows_missing(&self.active, &self.p.mu) {
             let floors = self.measure.floors;
-            *self = Self::new(self.p.clone())?;
+            *self = Self::new(self.p.clone(), self.backend())?;
             self.set_measure_floors(floors);
             return Ok(());
         }
         self.mass
             .reassemble(&self.mass_assembly, mass_triplets(&self.p), []);
         self.mass.set_rho(0.0)?;
-        self.factor.reassemble(
-            &self.assembly,
-            base_triplets(&self.p),
-            gram_triplets(&self.p.h, &self.active, self.m_mirror.is_some()),
-        );
+        match &mut self.system {
+            VelocitySystem::Direct { factor, assembly } => factor.reassemble(
+                assembly,
+                base_triplets(&self.p),
+                gram_triplets(&self.p.h, &self.active, self.m_mirror.is_some()),
+            ),
+            VelocitySystem::Iterative(pcg) => pcg.take_values(gram(&self.p, &self.active)),
+        }
         self.reset_shift();
         if let Some(newton) = &mut self.newton {
             newton.take_values(&self.p);
@@ -133,10 +150,41 @@ impl GlobalSplitting {
         Ok(())
     }
 
-    /// Restarts the De Saxce shift from its initial guess (docs/algorithms.md §5).
+    /// Restarts the De Saxce shift from its initial guess (docs/algorithms.md §5), and the
+    /// iterative backend's accuracy with it (a new solve).
     fn reset_shift(&mut self) {
         initial_shift(&self.p.mu, self.p.h.norm_fro(), &mut self.phi);
         self.refresh_c();
+        self.last_error = f64::INFINITY;
+    }
+
+    /// The backend the system was built with (a rebuild keeps it).
+    fn backend(&self) -> LinearSolver {
+        match self.system {
+            VelocitySystem::Direct { .. } => LinearSolver::Direct,
+            VelocitySystem::Iterative(_) => LinearSolver::Iterative,
+        }
+    }
+
+    /// When the iterative backend stops (docs/algorithms.md §14): once the residual
+    /// `||b - A v||` of its warm start has shrunk by [`PCG_REDUCTION`], so that the error of
+    /// each inexact step is a fraction of the step itself (which goes to zero as ADMM
+    /// converges: the errors stay summable, as inexact ADMM needs); or once it is below a
+    /// tenth of the last measured error in the units of the measure's equation term, which
+    /// that residual adds to: then it no longer matters for the tolerance. The error
+    /// measured at the end is of the inexact iterate, so it stays honest either way.
+    fn inexact_stop(&self, rhs_norm: f64) -> Option<PcgStop> {
+        let tol = if self.last_error.is_finite() {
+            PCG_ERROR_SHARE * self.last_error * self.measure.scales.equation
+        } else {
+            PCG_FIRST_RELATIVE * rhs_norm
+        };
+        Some(PcgStop {
+            tol,
+            reduction: PCG_REDUCTION,
+            floor: PCG_RELATIVE_FLOOR * rhs_norm,
+            max_iterations: PCG_MAX_ITERATIONS,
+        })
     }
 
     /// Sets the De Saxce shift from a velocity (warm start).
@@ -201,13 +249,64 @@ fn system_matrix(p: &GlobalProblem, active: &[f64]) -> (ParamMatrix, Assembly, F
     (matrix, assembly, kind)
 }
 
+/// The iterative backend's operator `M + rho H D H^T`.
+fn gram<'a>(p: &'a GlobalProblem, active: &'a [f64]) -> Gram<'a> {
+    Gram {
+        m: &p.m,
+        h: &p.h,
+        active,
+    }
+}
+
+/// The v-update system with the backend `choice` asks for. `Auto` (docs/algorithms.md §14)
+/// factorizes unless the system is large and the symbolic analysis predicts a factor whose
+/// two triangular solves cost more than the expected conjugate-gradient products, or a
+/// factor too large for memory. Joints and a non-symmetric M stay direct.
+fn velocity_system(
+    p: &GlobalProblem,
+    active: &[f64],
+    choice: LinearSolver,
+) -> Result<(VelocitySystem, FactorKind), Error> {
+    let iterative = || VelocitySystem::Iterative(GramPcg::new(gram(p, active)));
+    let (matrix, assembly, kind) = system_matrix(p, active);
+    let eligible = kind == FactorKind::Cholesky;
+    if eligible && choice == LinearSolver::Iterative {
+        return Ok((iterative(), kind));
+    }
+    let factor = Factor::new("M + rho H H^T", matrix, kind)?;
+    if eligible && choice == LinearSolver::Auto && matrix_free_pays(p, &factor) {
+        return Ok((iterative(), kind));
+    }
+    Ok((VelocitySystem::Direct { factor, assembly }, kind))
+}
+
+/// The cost model of `Auto`: per v-update, two triangular solves read the factor twice;
+/// conjugate gradients take about [`PCG_EXPECTED_ITERATIONS`] products with `M`, `H` and
+/// `H^T` each (plus the block preconditioner, about as much as M). Below
+/// [`MATRIX_FREE_MIN_FILL`] the factor stays: the Newton phase it keeps is worth more.
+fn matrix_free_pays(p: &GlobalProblem, factor: &Factor) -> bool {
+    let Some(fill) = factor.stored_entries() else {
+        return false;
+    };
+    if fill < MATRIX_FREE_MIN_FILL {
+        return false;
+    }
+    let direct = 2.0 * fill as f64;
+    let product = 2.0 * p.m.nnz() as f64 + 2.0 * p.h.nnz() as f64;
+    let iterative = PCG_EXPECTED_ITERATIONS * product;
+    direct > iterative || fill > FACTOR_MAX_ENTRIES
+}
+
 impl Splitting for GlobalSplitting {
     fn dim(&self) -> usize {
         self.c.len()
     }
 
     fn set_rho(&mut self, rho: f64) -> Result<(), Error> {
-        self.factor.set_rho(rho)
+        match &mut self.system {
+            VelocitySystem::Direct { factor, .. } => factor.set_rho(rho),
+            VelocitySystem::Iterative(pcg) => pcg.set_rho(rho),
+        }
     }
 
     fn x_step(&mut self, y: &[f64], zeta: &[f64], rho: f64, ax: &mut [f64]) {
@@ -222,18 +321,33 @@ impl Splitting for GlobalSplitting {
                 *t = -b;
             }
         }
+        let stop = match self.system {
+            VelocitySystem::Iterative(_) => self.inexact_stop(norm2(&self.rhs)),
+            VelocitySystem::Direct { .. } => None,
+        };
+        let factor = match &mut self.system {
+            VelocitySystem::Direct { factor, .. } => factor,
+            VelocitySystem::Iterative(pcg) => {
+                // From the last velocity: a warm start that is close after a few iterations.
+                let a = gram(&self.p, &self.active);
+                let stop = stop.expect("made for the iterative backend");
+                pcg.solve(a, &self.rhs, &mut self.sol, stop);
+                self.p.h.mul_t_vec(1.0, &self.sol, 0.0, ax);
+                return;
+            }
+        };
         self.sol.copy_from_slice(&self.rhs);
-        self.factor.solve_in_place(&mut self.sol);
+        factor.solve_in_place(&mut self.sol);
         if self.p.joints.is_some() {
             // One refinement step against the unregularized system.
-            self.factor.mul_vec(&self.sol, &mut self.resid);
+            factor.mul_vec(&self.sol, &mut self.resid);
             for i in n..self.resid.len() {
                 self.resid[i] += JOINT_DELTA * self.sol[i];
             }
             for i in 0..self.resid.len() {
                 self.resid[i] = self.rhs[i] - self.resid[i];
             }
-            self.factor.solve_in_place(&mut self.resid);
+            factor.solve_in_place(&mut self.resid);
             for i in 0..self.resid.len() {
                 self.sol[i] += self.resid[i];
             }
@@ -296,13 +410,15 @@ impl Splitting for GlobalSplitting {
         }
         let n = self.p.n();
         Self::lambda_into(&self.sol, n, &mut self.lambda);
-        global_error_with(
+        let error = global_error_with(
             &self.p,
             &self.r,
             &self.sol[..n],
             &self.lambda,
             &mut self.measure,
-        )
+        );
+        self.last_error = error;
+        error
     }
 }
 
@@ -442,8 +558,23 @@ impl ContactForm for GlobalSplitting {
         run_off(&self.p.h, &s.r, &s.u, &self.p.w, &self.p.mu)
     }
 
+    fn matrix_free(&self) -> bool {
+        matches!(self.system, VelocitySystem::Iterative(_))
+    }
+
+    fn linear_iterations(&self) -> usize {
+        match &self.system {
+            VelocitySystem::Iterative(pcg) => pcg.iterations(),
+            VelocitySystem::Direct { .. } => 0,
+        }
+    }
+
     fn refactorizations(&self) -> usize {
-        self.factor.refactorizations() + self.mass.refactorizations()
+        let system = match &self.system {
+            VelocitySystem::Direct { factor, .. } => factor.refactorizations(),
+            VelocitySystem::Iterative(pcg) => pcg.factorizations(),
+        };
+        system + self.mass.refactorizations()
     }
 
     fn polish(
@@ -551,7 +682,7 @@ mod tests {
     /// factorized.
     #[test]
     fn x_step_with_joints_after_returning_to_a_cached_rho() {
-        let mut s = GlobalSplitting::new(joint_problem()).unwrap();
+        let mut s = GlobalSplitting::new(joint_problem(), LinearSolver::Auto).unwrap();
         let y = [0.3, 0.1, -0.2, 0.5, 0.0, 0.1];
         let zeta = [-0.2, 0.05, 0.1, -0.4, 0.2, 0.0];
         let mut ax = [0.0; 6];

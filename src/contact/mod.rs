@@ -16,6 +16,7 @@ use crate::cone::{de_saxce_term, get3, set3};
 use crate::measure::Floors;
 use crate::newton::NewtonOutcome;
 use crate::problem::{NewValues, Problem};
+use crate::settings::LinearSolver;
 use crate::types::Error;
 use crate::types::Solution;
 use std::time::Instant;
@@ -68,6 +69,15 @@ pub(crate) trait ContactForm: Splitting + Send {
     fn certifies_infeasibility(&self, state: &EngineState) -> bool;
     /// Numeric factorizations so far.
     fn refactorizations(&self) -> usize;
+    /// True when the v-update is solved matrix-free: the Newton phase, whose systems are
+    /// factorized, is then left out.
+    fn matrix_free(&self) -> bool {
+        false
+    }
+    /// Conjugate-gradient iterations of the matrix-free backend so far.
+    fn linear_iterations(&self) -> usize {
+        0
+    }
     /// The Newton phase from the iterate in `state`: when it ends below the error of its
     /// start, its best iterate becomes the form's iterate and a warm start in `state` that
     /// ADMM can resume from. The Newton solver is built on first use.
@@ -81,9 +91,12 @@ pub(crate) trait ContactForm: Splitting + Send {
 }
 
 /// Builds the form of `problem`.
-pub(crate) fn contact_form(problem: Problem) -> Result<Box<dyn ContactForm>, Error> {
+pub(crate) fn contact_form(
+    problem: Problem,
+    backend: LinearSolver,
+) -> Result<Box<dyn ContactForm>, Error> {
     Ok(match problem {
-        Problem::Global(g) => Box::new(GlobalSplitting::new(g)?),
+        Problem::Global(g) => Box::new(GlobalSplitting::new(g, backend)?),
         Problem::Local(l) => Box::new(LocalSplitting::new(l)?),
     })
 }

@@ -48,9 +48,10 @@ pub use problem::{
 pub use result::*;
 pub use settings::{
     cadmm_settings, cadmm_settings_free, cadmm_settings_new, cadmm_settings_set_anderson,
-    cadmm_settings_set_initial_rho, cadmm_settings_set_max_iterations, cadmm_settings_set_newton,
-    cadmm_settings_set_s_update, cadmm_settings_set_time_limit, cadmm_settings_set_tolerance,
-    cadmm_settings_set_trace, cadmm_settings_set_variant,
+    cadmm_settings_set_initial_rho, cadmm_settings_set_linear_solver,
+    cadmm_settings_set_max_iterations, cadmm_settings_set_newton, cadmm_settings_set_s_update,
+    cadmm_settings_set_time_limit, cadmm_settings_set_tolerance, cadmm_settings_set_trace,
+    cadmm_settings_set_variant,
 };
 pub use solver::{
     cadmm_solver, cadmm_solver_free, cadmm_solver_get_joint_multipliers, cadmm_solver_get_solution,

@@ -5,7 +5,7 @@ use super::panic::{guard, guard_value};
 use super::result::{cadmm_result, Failure, FfiResult, CADMM_ERR_INVALID_SETTING};
 use crate::admm::SUpdate;
 use crate::settings::InitialRho;
-use crate::settings::{Settings, VariantChoice};
+use crate::settings::{LinearSolver, Settings, VariantChoice};
 use std::ffi::c_char;
 
 /// Solver settings. Opaque; created by `cadmm_settings_new` with the defaults (tolerance
@@ -208,6 +208,28 @@ pub unsafe extern "C" fn cadmm_settings_set_s_update(
                     ))
                 }
             };
+            Ok(())
+        })
+    }
+}
+
+/// Chooses how the v-update systems `M + rho H H^T` of the global form are solved:
+/// "auto" (the default: per island, a cost model weighs the factor's predicted fill
+/// against the products of conjugate gradients), "direct" (factorized) or "iterative"
+/// (matrix-free preconditioned conjugate gradients, without the Newton phase; systems
+/// with joints or a non-symmetric M stay direct). The statistics' `linear_iterations`
+/// counts the conjugate-gradient iterations. Errors: `CADMM_ERR_NULL_POINTER` (`s` or
+/// `name`), `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_set_linear_solver(
+    s: *mut cadmm_settings,
+    name: *const c_char,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    unsafe {
+        change(s, |set| {
+            let name = utf8("name", name, CADMM_ERR_INVALID_SETTING)?;
+            set.linear_solver = LinearSolver::from_name(name)?;
             Ok(())
         })
     }

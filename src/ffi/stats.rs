@@ -57,6 +57,9 @@ pub struct cadmm_stats {
     /// Rows of the contact space in the linear systems: `3 nc`, less two for each
     /// contact of an island whose contacts are all frictionless.
     pub rows: u64,
+    /// Conjugate-gradient iterations of the matrix-free v-updates (0 when the systems are
+    /// factorized; see `cadmm_settings_set_linear_solver`).
+    pub linear_iterations: u64,
 }
 
 /// Smallest `struct_size` accepted: the fields up to and including `solve_seconds`.
@@ -84,6 +87,7 @@ impl From<&Stats> for cadmm_stats {
             islands: s.islands as u64,
             failed_island: s.failed_island.map_or(-1, |k| k as i64),
             rows: s.rows as u64,
+            linear_iterations: s.linear_iterations as u64,
         }
     }
 }
@@ -131,7 +135,8 @@ pub(crate) unsafe fn write_stats(dst: *mut cadmm_stats, size: usize, src: &cadmm
         newton_fallbacks,
         islands,
         failed_island,
-        rows
+        rows,
+        linear_iterations
     );
 }
 

@@ -46,6 +46,11 @@ impl DenseFactor {
         self.refactorizations
     }
 
+    /// Order of the matrix.
+    pub fn size(&self) -> usize {
+        self.matrix.n
+    }
+
     /// New values on the same pattern; the next [`DenseFactor::set_rho`] refactorizes.
     pub fn reassemble(
         &mut self,

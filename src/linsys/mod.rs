@@ -7,11 +7,13 @@
 
 pub(crate) mod dense;
 pub mod param_matrix;
+mod pcg;
 mod sparse_factor;
 
 use dense::DenseFactor;
 pub use dense::DENSE_MAX;
 pub use param_matrix::ParamMatrix;
+pub use pcg::{Gram, GramPcg, PcgStop};
 pub use sparse_factor::{FactorKind, SparseFactor};
 
 use crate::types::Error;
@@ -41,6 +43,16 @@ impl Factor {
         match self {
             Factor::Dense(f) => f.refactorizations(),
             Factor::Sparse(f) => f.refactorizations(),
+        }
+    }
+
+    /// Entries the factor stores (its fill), when the analysis predicts them: a dense
+    /// factor's `n^2`, a sparse Cholesky's from its symbolic analysis; `None` for LU, whose
+    /// fill depends on the pivots.
+    pub fn stored_entries(&self) -> Option<usize> {
+        match self {
+            Factor::Dense(f) => Some(f.size() * f.size()),
+            Factor::Sparse(f) => f.stored_entries(),
         }
     }
 

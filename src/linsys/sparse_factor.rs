@@ -98,12 +98,9 @@ impl SparseFactor {
                 .collect(),
             _ => Vec::new(),
         };
-        let spare = (0..CACHE)
-            .map(|_| match &symbolic {
-                Symbolic::Cholesky(s) => Numeric::Cholesky(vec![0.0; s.len_val()]),
-                Symbolic::Lu(_) => Numeric::Lu(Box::new(NumericLu::new())),
-            })
-            .collect();
+        // Factor storage is made by the factorizations that need it (a system whose rho
+        // never changes holds one factor, not the cache's worth) and recycled after.
+        let spare = Vec::with_capacity(CACHE);
         Ok(Self {
             kind,
             name,
@@ -122,6 +119,14 @@ impl SparseFactor {
     /// Number of numeric factorizations done so far.
     pub fn refactorizations(&self) -> usize {
         self.refactorizations
+    }
+
+    /// Entries of a Cholesky factor, from the symbolic analysis; `None` for LU.
+    pub fn stored_entries(&self) -> Option<usize> {
+        match &self.symbolic {
+            Symbolic::Cholesky(s) => Some(s.len_val()),
+            Symbolic::Lu(_) => None,
+        }
     }
 
     /// New values on the same pattern (see [`ParamMatrix::reassemble`]); drops every

@@ -46,6 +46,9 @@ pub struct Stats {
     pub failed_island: Option<usize>,
     /// Seconds spent in the last solve.
     pub solve_seconds: f64,
+    /// Conjugate-gradient iterations of the matrix-free v-updates (0 when the systems are
+    /// factorized; see [`crate::LinearSolver`]).
+    pub linear_iterations: usize,
 }
 
 impl Default for Stats {
@@ -69,6 +72,7 @@ impl Default for Stats {
             islands: 0,
             failed_island: None,
             solve_seconds: 0.0,
+            linear_iterations: 0,
         }
     }
 }

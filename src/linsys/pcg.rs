@@ -1,0 +1,420 @@
+//! The iterative backend of the global v-update: preconditioned conjugate gradients on
+//! `A(rho) = M + rho H D H^T` (D: the active contact rows), applied as products with M and
+//! H and never formed. A factor of a large pile's system fills in far beyond `H` (and its
+//! memory grows with it), while a product costs `nnz(M) + 2 nnz(H)`.
+//!
+//! The preconditioner is block Jacobi per body: the blocks are the connected components of
+//! M's graph (a rigid body's 6 velocities), each block `M_BB + rho (H D H^T)_BB` factorized
+//! densely at each new rho. Components larger than [`BLOCK_MAX`] (a finite-element mesh's
+//! M) fall back to their diagonal.
+
+use super::dense::{cholesky, cholesky_solve};
+use crate::csc::{dot, norm2, CscMatrix};
+use crate::islands::DisjointSets;
+use crate::types::Error;
+
+/// Largest diagonal block the preconditioner factorizes (a rigid body has 6 velocities; a
+/// body with a few extra coordinates still fits).
+pub const BLOCK_MAX: usize = 12;
+
+/// The operator's data: `M`, `H` and the active contact rows `D` (1 or 0 each).
+#[derive(Clone, Copy)]
+pub struct Gram<'a> {
+    /// The mass matrix (symmetric).
+    pub m: &'a CscMatrix,
+    /// The contact Jacobian.
+    pub h: &'a CscMatrix,
+    /// Which contact rows take part.
+    pub active: &'a [f64],
+}
+
+/// When a solve stops: at `||b - A x|| <= max(floor, min(tol, reduction * r0))`, `r0` the
+/// residual of the starting point, or after `max_iterations`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PcgStop {
+    /// Residual that is always good enough.
+    pub tol: f64,
+    /// Factor by which the starting residual must shrink (1 for none).
+    pub reduction: f64,
+    /// Residual below which no solve is asked to go (round-off).
+    pub floor: f64,
+    /// Iteration limit.
+    pub max_iterations: usize,
+}
+
+/// How one solve ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PcgOutcome {
+    /// Conjugate-gradient iterations done.
+    pub iterations: usize,
+    /// `||b - A x||` at the end.
+    pub residual: f64,
+    /// The residual reached the asked tolerance.
+    pub converged: bool,
+}
+
+/// Preconditioned conjugate gradients on `M + rho H D H^T`, with its block-Jacobi
+/// preconditioner and work vectors (a solve does not allocate).
+pub struct GramPcg {
+    /// Indices of block `b`: `index[start[b]..start[b + 1]]`, ascending.
+    index: Vec<usize>,
+    start: Vec<usize>,
+    /// Offset of block `b`'s dense `k x k` matrices in `mass`, `gram` and `factor`.
+    offset: Vec<usize>,
+    /// Block and position in it of each velocity.
+    block_of: Vec<usize>,
+    position: Vec<usize>,
+    /// Column-major `(M_BB + M_BB^T) / 2`, `(H D H^T)_BB` and the inverse of
+    /// `M_BB + rho (H D H^T)_BB`, block after block (an inverse, because applying it is one
+    /// small product where a factor takes two triangular solves, at every iteration).
+    mass: Vec<f64>,
+    gram: Vec<f64>,
+    inverse: Vec<f64>,
+    rho: f64,
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    q: Vec<f64>,
+    /// `D H^T p`, in the contact space.
+    contact: Vec<f64>,
+    /// Conjugate-gradient iterations over every solve.
+    iterations: usize,
+    /// Numeric block factorizations so far.
+    factorizations: usize,
+}
+
+impl GramPcg {
+    /// Finds the blocks in M's pattern and takes the values of `M`, `H` and `active`.
+    pub fn new(a: Gram) -> Self {
+        let n = a.m.ncols();
+        let (index, start) = blocks_of(a.m);
+        let mut block_of = vec![0; n];
+        let mut position = vec![0; n];
+        let mut offset = Vec::with_capacity(start.len());
+        let mut size = 0;
+        for b in 0..start.len() - 1 {
+            offset.push(size);
+            let k = start[b + 1] - start[b];
+            size += k * k;
+            for (pos, &i) in index[start[b]..start[b + 1]].iter().enumerate() {
+                block_of[i] = b;
+                position[i] = pos;
+            }
+        }
+        offset.push(size);
+        let mut pcg = Self {
+            index,
+            start,
+            offset,
+            block_of,
+            position,
+            mass: vec![0.0; size],
+            gram: vec![0.0; size],
+            inverse: vec![0.0; size],
+            rho: f64::NAN,
+            r: vec![0.0; n],
+            z: vec![0.0; n],
+            p: vec![0.0; n],
+            q: vec![0.0; n],
+            contact: vec![0.0; a.h.ncols()],
+            iterations: 0,
+            factorizations: 0,
+        };
+        pcg.take_values(a);
+        pcg
+    }
+
+    /// Conjugate-gradient iterations over every solve so far.
+    pub fn iterations(&self) -> usize {
+        self.iterations
+    }
+
+    /// Numeric factorizations of the preconditioner so far.
+    pub fn factorizations(&self) -> usize {
+        self.factorizations
+    }
+
+    /// Takes new values of M, H and the active rows on the same patterns (no allocation);
+    /// the next [`GramPcg::set_rho`] refactorizes the blocks.
+    pub fn take_values(&mut self, Gram { m, h, active }: Gram) {
+        self.mass.fill(0.0);
+        self.gram.fill(0.0);
+        for j in 0..m.ncols() {
+            for (i, v) in m.col(j) {
+                if let Some(at) = self.slot(i, j) {
+                    // The symmetric part: both triangles add half.
+                    self.mass[at] += 0.5 * v;
+                    let mirror = self.slot(j, i).expect("same block");
+                    self.mass[mirror] += 0.5 * v;
+                }
+            }
+        }
+        for c in 0..h.ncols() {
+            if active[c] == 0.0 {
+                continue;
+            }
+            for (i, a) in h.col(c) {
+                for (j, b) in h.col(c) {
+                    if let Some(at) = self.slot(i, j) {
+                        self.gram[at] += a * b;
+                    }
+                }
+            }
+        }
+        self.rho = f64::NAN;
+    }
+
+    /// Where entry `(i, j)` of a block sits in the flat block storage, if both are in one.
+    fn slot(&self, i: usize, j: usize) -> Option<usize> {
+        let b = self.block_of[i];
+        if self.block_of[j] != b {
+            return None;
+        }
+        let k = self.start[b + 1] - self.start[b];
+        Some(self.offset[b] + self.position[j] * k + self.position[i])
+    }
+
+    /// Factorizes the blocks of `M + rho H D H^T`; a block that is not positive definite is
+    /// an error naming the system.
+    pub fn set_rho(&mut self, rho: f64) -> Result<(), Error> {
+        if rho == self.rho {
+            return Ok(());
+        }
+        let mut factor = [0.0; BLOCK_MAX * BLOCK_MAX];
+        for b in 0..self.start.len() - 1 {
+            let k = self.start[b + 1] - self.start[b];
+            let (lo, hi) = (self.offset[b], self.offset[b + 1]);
+            for (f, (m, g)) in factor
+                .iter_mut()
+                .zip(self.mass[lo..hi].iter().zip(&self.gram[lo..hi]))
+            {
+                *f = m + rho * g;
+            }
+            if !cholesky(&mut factor[..k * k], k) {
+                self.rho = f64::NAN;
+                return Err(Error::NotPositiveDefinite {
+                    field: "M + rho H H^T",
+                });
+            }
+            let inverse = &mut self.inverse[lo..hi];
+            for (j, column) in inverse.chunks_exact_mut(k).enumerate() {
+                column.fill(0.0);
+                column[j] = 1.0;
+                cholesky_solve(&factor[..k * k], k, column);
+            }
+        }
+        self.rho = rho;
+        self.factorizations += 1;
+        Ok(())
+    }
+
+    /// `y = (M + rho H D H^T) x` at the rho of the last [`GramPcg::set_rho`].
+    pub fn apply(&mut self, Gram { m, h, active }: Gram, x: &[f64], y: &mut [f64]) {
+        h.mul_t_vec(1.0, x, 0.0, &mut self.contact);
+        for (c, a) in self.contact.iter_mut().zip(active) {
+            *c *= a;
+        }
+        m.mul_vec(1.0, x, 0.0, y);
+        h.mul_vec(self.rho, &self.contact, 1.0, y);
+    }
+
+    /// `z = P^-1 r`, block by block.
+    fn precondition(&self, r: &[f64], z: &mut [f64]) {
+        for b in 0..self.start.len() - 1 {
+            let idx = &self.index[self.start[b]..self.start[b + 1]];
+            let inverse = &self.inverse[self.offset[b]..self.offset[b + 1]];
+            for &i in idx {
+                z[i] = 0.0;
+            }
+            for (column, &j) in inverse.chunks_exact(idx.len()).zip(idx) {
+                let rj = r[j];
+                for (a, &i) in column.iter().zip(idx) {
+                    z[i] += a * rj;
+                }
+            }
+        }
+    }
+
+    /// Solves `A(rho) x = b` from the `x` given (a warm start) until `stop` says. A breakdown (a non-positive or non-finite curvature, which
+    /// round-off alone can cause on a positive definite system) leaves `x` non-finite, so
+    /// that the caller's finiteness check ends the solve with a status.
+    pub fn solve(&mut self, a: Gram, b: &[f64], x: &mut [f64], stop: PcgStop) -> PcgOutcome {
+        let mut r = std::mem::take(&mut self.r);
+        let mut z = std::mem::take(&mut self.z);
+        let mut p = std::mem::take(&mut self.p);
+        let mut q = std::mem::take(&mut self.q);
+        self.apply(a, x, &mut q);
+        for i in 0..r.len() {
+            r[i] = b[i] - q[i];
+        }
+        let mut out = PcgOutcome {
+            iterations: 0,
+            residual: norm2(&r),
+            converged: false,
+        };
+        let tol = stop.tol.min(stop.reduction * out.residual).max(stop.floor);
+        if out.residual > tol {
+            self.precondition(&r, &mut z);
+            p.copy_from_slice(&z);
+            let mut rz = dot(&r, &z);
+            while out.iterations < stop.max_iterations {
+                self.apply(a, &p, &mut q);
+                let curvature = dot(&p, &q);
+                if !(curvature > 0.0 && curvature.is_finite()) {
+                    x.fill(f64::NAN);
+                    out.residual = f64::NAN;
+                    break;
+                }
+                let alpha = rz / curvature;
+                for i in 0..x.len() {
+                    x[i] += alpha * p[i];
+                    r[i] -= alpha * q[i];
+                }
+                out.iterations += 1;
+                out.residual = norm2(&r);
+                if out.residual <= tol {
+                    break;
+                }
+                self.precondition(&r, &mut z);
+                let rz_next = dot(&r, &z);
+                let beta = rz_next / rz;
+                rz = rz_next;
+                for i in 0..p.len() {
+                    p[i] = z[i] + beta * p[i];
+                }
+            }
+        }
+        out.converged = out.residual <= tol;
+        self.iterations += out.iterations;
+        (self.r, self.z, self.p, self.q) = (r, z, p, q);
+        out
+    }
+}
+
+/// The connected components of M's graph as blocks (indices ascending within each), with
+/// components above [`BLOCK_MAX`] split into single indices. Returns the indices block
+/// after block and each block's start.
+fn blocks_of(m: &CscMatrix) -> (Vec<usize>, Vec<usize>) {
+    let n = m.ncols();
+    let mut sets = DisjointSets::new(n);
+    for j in 0..n {
+        for (i, _) in m.col(j) {
+            sets.union(i, j);
+        }
+    }
+    // Members of each component, in index order.
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for i in 0..n {
+        members[sets.find(i)].push(i);
+    }
+    let mut index = Vec::with_capacity(n);
+    let mut start = vec![0];
+    for component in members.into_iter().filter(|c| !c.is_empty()) {
+        if component.len() <= BLOCK_MAX {
+            index.extend_from_slice(&component);
+            start.push(index.len());
+        } else {
+            for i in component {
+                index.push(i);
+                start.push(index.len());
+            }
+        }
+    }
+    (index, start)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{DMatrix, DVector};
+
+    /// Two 2x2 bodies and a 1x1 one, three contact rows (one inactive).
+    fn system() -> (CscMatrix, CscMatrix, Vec<f64>) {
+        #[rustfmt::skip]
+        let m = CscMatrix::from_dense("M", 5, 5, &[
+            2.0, 0.3, 0.0, 0.0, 0.0,
+            0.3, 1.0, 0.0, 0.0, 0.0,
+            0.0, 0.0, 4.0, -1.0, 0.0,
+            0.0, 0.0, -1.0, 3.0, 0.0,
+            0.0, 0.0, 0.0, 0.0, 0.5,
+        ]).unwrap();
+        #[rustfmt::skip]
+        let h = CscMatrix::from_dense("H", 5, 3, &[
+            1.0, 0.0, 0.2,
+            0.5, 1.0, 0.0,
+            -1.0, 0.0, 0.7,
+            0.0, 0.4, 0.0,
+            0.0, -0.3, 1.0,
+        ]).unwrap();
+        (m, h, vec![1.0, 0.0, 1.0])
+    }
+
+    #[test]
+    fn blocks_are_the_components_of_m() {
+        let (m, _, _) = system();
+        let (index, start) = blocks_of(&m);
+        assert_eq!(index, vec![0, 1, 2, 3, 4]);
+        assert_eq!(start, vec![0, 2, 4, 5]);
+    }
+
+    /// The solve against a dense LU solve of the formed matrix.
+    #[test]
+    fn solves_the_formed_system() {
+        let (m, h, active) = system();
+        let rho = 3.0;
+        let md = DMatrix::from_column_slice(5, 5, &m.to_dense());
+        let hd = DMatrix::from_column_slice(5, 3, &h.to_dense());
+        let d = DMatrix::from_diagonal(&DVector::from_column_slice(&active));
+        let a = md + rho * &hd * d * hd.transpose();
+        let b = [1.0, -2.0, 0.5, 3.0, -1.0];
+        let reference = a.lu().solve(&DVector::from_column_slice(&b)).unwrap();
+        let gram = Gram {
+            m: &m,
+            h: &h,
+            active: &active,
+        };
+        let mut pcg = GramPcg::new(gram);
+        pcg.set_rho(rho).unwrap();
+        let mut x = vec![0.0; 5];
+        let stop = PcgStop {
+            tol: 1e-12,
+            reduction: 1.0,
+            floor: 0.0,
+            max_iterations: 50,
+        };
+        let out = pcg.solve(gram, &b, &mut x, stop);
+        assert!(out.converged, "{out:?}");
+        assert!(
+            out.iterations <= 5,
+            "CG in exact arithmetic: at most n steps"
+        );
+        for (a, b) in x.iter().zip(reference.iter()) {
+            assert!((a - b).abs() <= 1e-10 * b.abs().max(1.0), "{a} vs {b}");
+        }
+        // Warm started at the answer: no iteration.
+        let again = pcg.solve(gram, &b, &mut x, PcgStop { tol: 1e-10, ..stop });
+        assert_eq!(again.iterations, 0);
+    }
+
+    #[test]
+    fn indefinite_block_is_an_error() {
+        let (_, h, active) = system();
+        let m = CscMatrix::from_dense("M", 5, 5, &{
+            let mut d = [0.0; 25];
+            for i in 0..5 {
+                d[i * 6] = if i == 4 { -1.0 } else { 1.0 };
+            }
+            d
+        })
+        .unwrap();
+        let mut pcg = GramPcg::new(Gram {
+            m: &m,
+            h: &h,
+            active: &active,
+        });
+        assert!(matches!(
+            pcg.set_rho(1.0),
+            Err(Error::NotPositiveDefinite { .. })
+        ));
+    }
+}

@@ -21,7 +21,7 @@ fn solve(p: &GlobalProblem, backend: LinearSolver, tolerance: f64) -> (Stats, f6
     solver.solve().unwrap();
     let s = solver.solution();
     let error = common::global_error_sparse(p, &s.r, &s.v);
-    (solver.stats().clone(), error)
+    (*solver.stats(), error)
 }
 
 /// A sphere lattice of 6 x 6 x 4 (144 bodies, 384 contacts), one coupled island.

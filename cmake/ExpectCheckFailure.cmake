@@ -1,6 +1,7 @@
 # A negative control of an integration's --check (CTest), run with cmake -P:
 #
-#   cmake -DPROGRAM=<driver> -DARGS=<;-list> -DEXPECT=<;-list of regexes> -P ExpectCheckFailure.cmake
+#   cmake -DPROGRAM=<driver> -DARGS=<;-list> -DEXPECT=<;-list of regexes>
+#         -P ExpectCheckFailure.cmake
 #
 # Runs PROGRAM with ARGS and passes only when it exits with 1 (the drivers' "check failed"
 # code), its output matches every regex of EXPECT (the failed checks' own messages) and

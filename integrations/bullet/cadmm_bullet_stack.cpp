@@ -133,12 +133,13 @@ double pendulumPeriod(const StackWorld::Swing &s, double g) {
   return 2 * SIMD_PI * std::sqrt(inertia / (g * s.length)) / a;
 }
 
-std::string number(double x) {
-  if (!std::isfinite(x)) return "null";
+// A figure for a message (inf and nan as such), or for JSON (null for them).
+std::string shown(double x) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.6g", x);
   return buf;
 }
+std::string number(double x) { return std::isfinite(x) ? shown(x) : "null"; }
 
 }  // namespace
 
@@ -248,7 +249,7 @@ int main(int argc, char **argv) {
     maxCrossingError = maxAmplitudeError = 0;
     for (size_t k = 0; k < crossings.size(); ++k)
       maxCrossingError = std::max(maxCrossingError,
-                                  std::fabs(crossings[k] - ((2 * double(k) + 1) * period / 4 - h / 2)));
+                                  std::fabs(crossings[k] - (2 * double(k) + 1) * period / 4 + h / 2));
     for (double p : peaks)
       maxAmplitudeError = std::max(maxAmplitudeError, std::fabs(p / w.swing.amplitude - 1));
   }
@@ -287,29 +288,30 @@ int main(int argc, char **argv) {
   if (args.check) {
     std::vector<std::string> failed;
     const bool pendulum = args.scene == "pendulum" || swing;
-    if (pendulum && !(maxGap < kJointGap)) failed.push_back("the joint opened by " + number(maxGap) + " m");
+    if (pendulum && !(maxGap < kJointGap))
+      failed.push_back("the joint opened by " + shown(maxGap) + " m");
     if (!pendulum && fell) failed.push_back("a body fell");
     if (!pendulum && !(maxDrift < 1e-3))
-      failed.push_back("the top body drifted " + number(maxDrift) + " m");
+      failed.push_back("the top body drifted " + shown(maxDrift) + " m");
     if (swing) {
       if (crossings.size() < std::max<size_t>(expectedCrossings, 1))
         failed.push_back("the pendulum crossed the vertical " + std::to_string(crossings.size()) +
                          " times, the exact pendulum " + std::to_string(expectedCrossings));
       if (!(maxCrossingError <= kCrossingSlack))
-        failed.push_back("the pendulum crossed the vertical " + number(maxCrossingError) +
-                         " s away from the exact pendulum (period " + number(period) + " s)");
+        failed.push_back("the pendulum crossed the vertical " + shown(maxCrossingError) +
+                         " s away from the exact pendulum (period " + shown(period) + " s)");
       if (!(maxAmplitudeError <= kAmplitudeSlack))
         failed.push_back("the pendulum's swing amplitude is off by " +
-                         number(100 * maxAmplitudeError) + "%");
+                         shown(100 * maxAmplitudeError) + "%");
     }
     if (!(maxExcess <= kMaxPenetrationExcess))
-      failed.push_back("a contact penetrated " + number(maxExcess) +
+      failed.push_back("a contact penetrated " + shown(maxExcess) +
                        " m deeper than the Baumgarte correction leaves it");
     if (cadmm && unsolved)
       failed.push_back(std::to_string(unsolved) + " unsolved steps (solve above its tolerance)");
     if (cadmm && !(maxChecked <= args.checkTolerance))
-      failed.push_back("re-measured error " + number(maxChecked) + " above the check tolerance " +
-                       number(args.checkTolerance));
+      failed.push_back("re-measured error " + shown(maxChecked) + " above the check tolerance " +
+                       shown(args.checkTolerance));
     for (const std::string &why : failed)
       std::printf("CHECK FAILED: %s (%s, solver %s)\n", why.c_str(), args.scene.c_str(),
                   args.solver.c_str());

@@ -22,13 +22,15 @@ double norm(const std::vector<double> &x) {
 // y += A x (A in compressed columns).
 void mulAdd(const Csc &A, const double *x, std::vector<double> &y) {
   for (size_t j = 0; j < A.ncols; ++j)
-    for (int64_t k = A.colptr[j]; k < A.colptr[j + 1]; ++k) y[size_t(A.rowind[k])] += A.values[size_t(k)] * x[j];
+    for (int64_t k = A.colptr[j]; k < A.colptr[j + 1]; ++k)
+      y[size_t(A.rowind[k])] += A.values[size_t(k)] * x[j];
 }
 
 // y += A^T x.
 void mulTransAdd(const Csc &A, const double *x, std::vector<double> &y) {
   for (size_t j = 0; j < A.ncols; ++j)
-    for (int64_t k = A.colptr[j]; k < A.colptr[j + 1]; ++k) y[j] += A.values[size_t(k)] * x[A.rowind[k]];
+    for (int64_t k = A.colptr[j]; k < A.colptr[j + 1]; ++k)
+      y[j] += A.values[size_t(k)] * x[A.rowind[k]];
 }
 
 // Projection of z onto K_mu = {||z_T|| <= mu z_N} (zN >= 0 too, which matters for mu = 0).

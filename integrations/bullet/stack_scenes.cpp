@@ -48,7 +48,8 @@ StackWorld::Penetration StackWorld::penetration(double erp) const {
   Penetration p;
   for (int i = 0; i < dispatcher_.getNumManifolds(); ++i) {
     const btPersistentManifold *m = dispatcher_.getManifoldByIndexInternal(i);
-    const btTransform &a = m->getBody0()->getWorldTransform(), &b = m->getBody1()->getWorldTransform();
+    const btTransform &a = m->getBody0()->getWorldTransform();
+    const btTransform &b = m->getBody1()->getWorldTransform();
     for (int j = 0; j < m->getNumContacts(); ++j) {
       const btManifoldPoint &cp = m->getContactPoint(j);
       // As btPersistentManifold::refreshContactPoints measures it, without changing the point.

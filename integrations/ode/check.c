@@ -16,13 +16,15 @@ static double norm(const double *x, size_t n) {
 /* y += A x (A in compressed columns). */
 static void mul_add(const cadmm_csc *A, const double *x, double *y) {
     for (size_t j = 0; j < A->ncols; j++)
-        for (int64_t k = A->colptr[j]; k < A->colptr[j + 1]; k++) y[A->rowind[k]] += A->values[k] * x[j];
+        for (int64_t k = A->colptr[j]; k < A->colptr[j + 1]; k++)
+            y[A->rowind[k]] += A->values[k] * x[j];
 }
 
 /* y += A^T x. */
 static void mul_trans_add(const cadmm_csc *A, const double *x, double *y) {
     for (size_t j = 0; j < A->ncols; j++)
-        for (int64_t k = A->colptr[j]; k < A->colptr[j + 1]; k++) y[j] += A->values[k] * x[A->rowind[k]];
+        for (int64_t k = A->colptr[j]; k < A->colptr[j + 1]; k++)
+            y[j] += A->values[k] * x[A->rowind[k]];
 }
 
 /* Projection of z onto K_mu = {||z_T|| <= mu z_N} (z_N >= 0 too, which matters for mu = 0). */

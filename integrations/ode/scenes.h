@@ -21,8 +21,8 @@ typedef struct scene {
 } scene;
 
 /* Builds "tower", "mass-ratio-100", "mass-ratio-1000", "pyramid" or "slide" (one box on the
- * ground launched along x at `launch`); 0 on success, -1 for an unknown name. The world has gravity -9.81 z and ODE's default parameters except a
- * 1 mm contact surface layer. */
+ * ground launched along x at `launch`); 0 on success, -1 for an unknown name. The world has
+ * gravity -9.81 z and ODE's default parameters except a 1 mm contact surface layer. */
 int scene_build(scene *s, const char *name);
 void scene_free(scene *s);
 

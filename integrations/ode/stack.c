@@ -217,8 +217,8 @@ static void observe(const scene *s, summary *sum, double *top_z, double *drift) 
         const dReal *x = dBodyGetPosition(s->bodies[i]);
         double dx = x[0] - s->start[i][0], dy = x[1] - s->start[i][1];
         double side = sqrt(dx * dx + dy * dy);
-        if ((side > s->half[i][0] && s->launch == 0) || x[2] < s->start[i][2] - 0.5 * s->half[i][2] ||
-            !isfinite(side))
+        int sideways = side > s->half[i][0] && s->launch == 0;
+        if (sideways || x[2] < s->start[i][2] - 0.5 * s->half[i][2] || !isfinite(side))
             sum->fell = 1;
         if (i == s->top) {
             *top_z = x[2];
@@ -419,7 +419,8 @@ int main(int argc, char **argv) {
         char buf[4][160];
         int nf = 0;
         if (sum.fell) failed[nf++] = "a body fell";
-        if (s.launch == 0 && !(sum.max_drift < 1e-3)) failed[nf++] = "the top body drifted 1 mm or more";
+        if (s.launch == 0 && !(sum.max_drift < 1e-3))
+            failed[nf++] = "the top body drifted 1 mm or more";
         if (s.launch > 0 && !(final_speed < 1e-3)) {
             snprintf(buf[0], sizeof buf[0], "the sliding box did not stop (%.3g m/s)", final_speed);
             failed[nf++] = buf[0];

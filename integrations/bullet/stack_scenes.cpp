@@ -55,7 +55,7 @@ StackWorld::Penetration StackWorld::penetration(double erp) const {
       // As btPersistentManifold::refreshContactPoints measures it, without changing the point.
       const double before = -cp.getDistance(),
                    after = -(a(cp.m_localPointA) - b(cp.m_localPointB)).dot(cp.m_normalWorldOnB);
-      p.depth = std::max({p.depth, before, after});
+      p.depth = std::max(p.depth, before);
       p.excess = std::max(p.excess, after - (1 - erp) * std::max(before, 0.0));
     }
   }

@@ -25,9 +25,9 @@ class StackWorld {
   btDiscreteDynamicsWorld &world() { return *world_; }
   btConstraintSolver &solver() { return *solver_; }
   // Penetration of the contact points (m, >= 0). depth: the deepest, as collision detection
-  // found it at the start of the last step or at the bodies' places after it. excess: how
-  // much deeper any point is after the step than the Baumgarte correction at rate erp leaves
-  // it, (1 - erp) of its depth at the start of the step (0 for a point that was apart).
+  // found it at the start of the last step. excess: how much deeper any point is at the
+  // bodies' places after the step than the Baumgarte correction at rate erp leaves it,
+  // (1 - erp) of its depth at the start of the step (0 for a point that was apart).
   struct Penetration {
     double depth = 0, excess = 0;
   };

@@ -4,9 +4,12 @@
 #
 # ode_integration_build installs this build tree into a prefix and builds the separate
 # project integrations/ode against it with find_package(cadmm); the ode_stack_* cases run
-# its driver: cadmm on every scene with --check (nothing falls, top drift below 1 mm, every
-# step solved to 1e-8), ODE's two solvers once each (they must run), and one run where the
-# check must fail (ODE QuickStep lets the 1000:1 stack collapse).
+# its driver: cadmm on every scene with --check (stacks: nothing falls, top drift below 1 mm;
+# slide: the launched box stops where Coulomb's law says; every step solved, every answer
+# re-measured by the driver's own error measure within 1e-8, no contact deeper than 1.5 mm),
+# ODE's two solvers once each (they must run), and the ode_check_* negative controls: runs
+# where one check must fail with its own message (cmake/ExpectCheckFailure.cmake), ODE
+# QuickStep letting the 1000:1 stack collapse among them.
 find_package(PkgConfig QUIET)
 if(PKG_CONFIG_FOUND)
   pkg_check_modules(CADMM_ODE QUIET ode)
@@ -41,19 +44,48 @@ if(CADMM_ODE_FOUND)
   function(ode_stack name expect)
     ode_run(ode_stack_${name} cadmm_ode_stack ${expect} ${ARGN})
   endfunction()
+  # ode_check_fails(<name> EXPECT <regex...> ARGS <args...>): a cadmm_ode_stack run whose
+  # --check must fail (exit code 1) with every regex in its output.
+  function(ode_check_fails name)
+    cmake_parse_arguments(C "" "" "EXPECT;ARGS" ${ARGN})
+    string(REPLACE ";" "\\;" _args "${C_ARGS}")
+    string(REPLACE ";" "\\;" _expect "${C_EXPECT}")
+    add_test(NAME ${name} COMMAND ${CMAKE_COMMAND} "-DPROGRAM=${_ode_work}/build/cadmm_ode_stack"
+      "-DARGS=${_args}" "-DEXPECT=${_expect}"
+      -P "${PROJECT_SOURCE_DIR}/cmake/ExpectCheckFailure.cmake")
+    set_tests_properties(${name} PROPERTIES LABELS "integration;ode" TIMEOUT 120
+      FIXTURES_REQUIRED cadmm_ode)
+  endfunction()
   ode_run(ode_errors cadmm_ode_errors 0)
   foreach(_scene tower mass-ratio-100 mass-ratio-1000 pyramid)
     ode_stack(cadmm_${_scene} 0 --scene ${_scene} --solver cadmm --seconds 2 --json --check)
   endforeach()
+  ode_stack(cadmm_slide 0 --scene slide --solver cadmm --seconds 1.5 --json --check)
   ode_stack(cadmm_cold_tower 0 --scene tower --solver cadmm --seconds 1 --json --check --cold)
   ode_stack(quickstep_runs 0 --scene pyramid --solver ode-quickstep --seconds 1 --json)
   ode_stack(step_runs 0 --scene mass-ratio-100 --solver ode-step --seconds 1 --json)
-  ode_stack(check_fails_quickstep 1 --scene mass-ratio-1000 --solver ode-quickstep
-            --seconds 2 --json --check)
+  ode_check_fails(ode_check_fails_quickstep EXPECT "check failed: a body fell"
+    ARGS --scene mass-ratio-1000 --solver ode-quickstep --seconds 2 --json --check)
+  # One iteration per step, cold: steps end unsolved (and more fails).
+  ode_check_fails(ode_check_catches_unsolved EXPECT "check failed: [0-9]+ cadmm solves ended above"
+    ARGS --scene tower --solver cadmm --seconds 0.5 --check --cold --max-iterations 1)
+  # Solved to 1e-3, checked at 1e-8: only the re-measured error fails.
+  ode_check_fails(ode_check_catches_error
+    EXPECT "check failed: re-measured error .* above the check tolerance 1e-08"
+    ARGS --scene tower --solver cadmm --seconds 0.5 --check --tolerance 1e-3 --check-tolerance 1e-8)
+  # Solved and checked at 0.1, cold: the stack sinks 2 mm.
+  ode_check_fails(ode_check_catches_penetration EXPECT "check failed: a contact penetrated"
+    ARGS --scene tower --solver cadmm --seconds 0.5 --check --cold --tolerance 0.1
+         --check-tolerance 1)
+  # The solver given mu 0.45 where the scene's closed form has 0.5: the box slides 15 cm too far.
+  ode_check_fails(ode_check_catches_slide EXPECT "check failed: the box slid .* Coulomb's law says"
+    ARGS --scene slide --solver cadmm --seconds 1 --check --mu 0.45)
   if(VALGRIND_EXECUTABLE AND CADMM_VALGRIND AND NOT CADMM_SANITIZE)
     ode_run(valgrind_ode_errors cadmm_ode_errors 0 VALGRIND)
     ode_run(valgrind_ode_stack_cadmm cadmm_ode_stack 0 VALGRIND
             --scene tower --solver cadmm --seconds 0.25 --json --check)
+    ode_run(valgrind_ode_stack_slide cadmm_ode_stack 0 VALGRIND
+            --scene slide --solver cadmm --seconds 1 --json --check)
   endif()
 else()
   cadmm_test_dependency_missing("cadmm: ODE (libode-dev, pkg-config module ode) not found: "

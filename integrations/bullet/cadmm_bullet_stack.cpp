@@ -2,15 +2,30 @@
 // sequential impulse solver and prints one JSON line of figures.
 //
 //   cadmm_bullet_stack --scene tower|drop|mass-ratio-100|mass-ratio-1000|pyramid|
-//                               pendulum
+//                               pendulum|simple-pendulum
 //                      --solver cadmm|bullet [--seconds S] [--bullet-iterations N] [--cold]
 //                      [--json] [--trace FILE.csv] [--check] [--with-hinge]
+//                      [--tolerance T] [--max-iterations N] [--check-tolerance T]
+//                      [--damping D]
 //
-// --check exits with 1 when the scene failed: a body fell (more than a quarter of a box below
-// or beside where it should rest) or the top body drifted 1 mm or more horizontally (stacks), or a joint
-// opened by kJointGap or more (pendulum). A refused step (cadmm_bullet::Error) exits with 2.
+// --check exits with 1 when the scene failed, after printing one "CHECK FAILED: ..." line
+// per failed check:
+//  - a body fell (more than a quarter of a box below or beside where it should rest) or the
+//    top body drifted 1 mm or more horizontally (stacks);
+//  - a joint opened by kJointGap or more (pendulums);
+//  - the simple pendulum's zero crossings or swing amplitudes left the exact pendulum's
+//    (kCrossingSlack, kAmplitudeSlack);
+//  - a contact ended a step deeper than the Baumgarte correction leaves it, by more than
+//    kMaxPenetrationExcess;
+//  - (cadmm) a solve ended above its tolerance, or an answer re-measured by the driver's own
+//    copy of the error measure (solution_check.h) on the problem handed to cadmm is above the
+//    check tolerance (--check-tolerance, default the solver's --tolerance, default 1e-8).
+// A refused step (cadmm_bullet::Error) exits with 2. --tolerance and --max-iterations set
+// cadmm's, --damping the bodies' linear and angular damping (Bullet's, applied before the
+// solve); CTest uses them to show that the checks fire.
 #include "bullet_reference_solver.h"
 #include "cadmm_constraint_solver.h"
+#include "solution_check.h"
 #include "stack_scenes.h"
 
 #include <cmath>
@@ -30,19 +45,41 @@ namespace {
 // 60 Hz opens by about 2 cm with either solver. A joint that is not enforced opens by metres.
 const double kJointGap = 0.03;
 
+// A contact is solved at the velocity level with a Baumgarte bias: a step that starts d deep
+// ends at most (1 - erp) d deep, and one that starts apart ends touching, up to the contact
+// points' motion being linearized over the step (second order: h^2 omega^2 r, under 0.1 mm
+// for boxes turning slower than 0.5 rad/s, as in every scene here; 2e-8 m measured). Landings
+// are not bounded in depth: collision detection finds a contact only once a falling box is
+// up to one step's travel (2 cm) deep. One step of unopposed gravity sinks a resting box
+// g h^2 = 2.7 mm at 60 Hz, 27 times the bound; a solve stopped at tolerance 0.1 leaves 0.5 mm.
+const double kMaxPenetrationExcess = 1e-4;
+
+// The simple pendulum (60 Hz, T = 1.43 s) against the exact pendulum. Semi-implicit Euler
+// released from rest runs half a step ahead (its first velocity is a whole step of gravity,
+// the midpoint rule's half), so crossing k is expected at (2k + 1) T / 4 - h / 2; its period
+// is (omega h)^2 / 24 = 2e-4 too long, 0.4 ms by the third crossing, and the joint's ERP
+// correction adds its own (0.8 ms measured). 2 ms also tells the exact period from the
+// small-angle one (0.8% shorter at 20 degrees: 3, 9 and 14 ms off at the three crossings).
+const double kCrossingSlack = 2e-3;
+// Nothing damps the swing: an amplitude 1% off (0.3% measured) is energy the solver made or
+// lost.
+const double kAmplitudeSlack = 0.01;
+
 struct Args {
   std::string scene = "tower", solver = "cadmm", trace;
-  double seconds = 5;
-  int bulletIterations = 10;
+  double seconds = 5, tolerance = 1e-8, checkTolerance = 0;  // 0: the solver's tolerance
+  double damping = 0;
+  int bulletIterations = 10, maxIterations = 0;               // 0: cadmm's default
   bool cold = false, json = false, check = false, hinge = false;
 };
 
 [[noreturn]] void usage(const char *msg) {
   std::fprintf(stderr,
                "cadmm_bullet_stack: %s\nusage: cadmm_bullet_stack --scene tower|drop|mass-ratio-100|"
-               "mass-ratio-1000|pyramid|pendulum --solver cadmm|bullet [--seconds S] "
-               "[--bullet-iterations N] [--cold] [--json] [--trace FILE.csv] [--check] "
-               "[--with-hinge]\n",
+               "mass-ratio-1000|pyramid|pendulum|simple-pendulum --solver cadmm|bullet "
+               "[--seconds S] [--bullet-iterations N] [--cold] [--json] [--trace FILE.csv] "
+               "[--check] [--with-hinge] [--tolerance T] [--max-iterations N] "
+               "[--check-tolerance T] [--damping D]\n",
                msg);
   std::exit(64);
 }
@@ -60,6 +97,13 @@ Args parse(int argc, char **argv) {
     else if (k == "--seconds") a.seconds = std::atof(value().c_str());
     else if (k == "--bullet-iterations") a.bulletIterations = std::atoi(value().c_str());
     else if (k == "--trace") a.trace = value();
+    else if (k == "--tolerance") a.tolerance = std::atof(value().c_str());
+    else if (k == "--check-tolerance") {
+      a.checkTolerance = std::atof(value().c_str());
+      if (!(a.checkTolerance > 0)) usage("--check-tolerance must be positive");
+    }
+    else if (k == "--max-iterations") a.maxIterations = std::atoi(value().c_str());
+    else if (k == "--damping") a.damping = std::atof(value().c_str());
     else if (k == "--cold") a.cold = true;
     else if (k == "--json") a.json = true;
     else if (k == "--check") a.check = true;
@@ -69,15 +113,33 @@ Args parse(int argc, char **argv) {
   if (a.solver != "cadmm" && a.solver != "bullet") usage("--solver must be cadmm or bullet");
   if (!(a.seconds > 0)) usage("--seconds must be positive");
   if (a.bulletIterations < 1) usage("--bullet-iterations must be at least 1");
+  if (!(a.tolerance > 0)) usage("--tolerance must be positive");
+  if (a.maxIterations < 0) usage("--max-iterations must be at least 1");
+  if (!(a.damping >= 0 && a.damping <= 1)) usage("--damping must be in [0, 1]");
+  if (a.checkTolerance == 0) a.checkTolerance = a.tolerance;
   return a;
 }
 
-std::string number(double x) {
-  if (!std::isfinite(x)) return "null";
+// The exact period of the physical pendulum of StackWorld::Swing released at rest at angle
+// a: T0 / AGM(1, cos(a / 2)), T0 = 2 pi sqrt(I / (m g L)) its small-angle period, I the
+// cube's moment about the pivot (side^2 / 6 about its centre, plus L^2), per unit mass.
+double pendulumPeriod(const StackWorld::Swing &s, double g) {
+  double a = 1, b = std::cos(s.amplitude / 2);
+  for (int i = 0; i < 40 && a != b; ++i) {
+    const double m = (a + b) / 2;
+    b = std::sqrt(a * b), a = m;
+  }
+  const double inertia = s.side * s.side / 6 + s.length * s.length;
+  return 2 * SIMD_PI * std::sqrt(inertia / (g * s.length)) / a;
+}
+
+// A figure for a message (inf and nan as such), or for JSON (null for them).
+std::string shown(double x) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.6g", x);
   return buf;
 }
+std::string number(double x) { return std::isfinite(x) ? shown(x) : "null"; }
 
 }  // namespace
 
@@ -88,9 +150,17 @@ int main(int argc, char **argv) {
   CadmmConstraintSolver *cadmm = nullptr;
   BulletReferenceSolver *bullet = nullptr;
   std::unique_ptr<btConstraintSolver> solver;
+  // The driver's re-measure of every answer cadmm hands back (solution_check.h).
+  double maxChecked = 0;
   if (args.solver == "cadmm") {
     SolverOptions o;
     o.warmStart = !args.cold;
+    o.tolerance = args.tolerance;
+    o.maxIterations = uint32_t(args.maxIterations);
+    o.onSolved = [&maxChecked](const SolvedGroup &g) {
+      const double e = remeasureError(g.problem, g.r, g.v, g.lambda);
+      if (!(e <= maxChecked)) maxChecked = e;
+    };
     solver = std::make_unique<CadmmConstraintSolver>(o);
     cadmm = static_cast<CadmmConstraintSolver *>(solver.get());
   } else {
@@ -101,10 +171,17 @@ int main(int argc, char **argv) {
   w.world().getSolverInfo().m_numIterations = args.bulletIterations;
   if (!buildScene(args.scene, w)) usage(("unknown scene " + args.scene).c_str());
   if (args.hinge) addHinge(w);
+  for (btRigidBody *b : w.boxes) b->setDamping(args.damping, args.damping);
+  const double erp = w.world().getSolverInfo().m_erp2;  // the contacts' Baumgarte rate
 
   btRigidBody *top = w.boxes.back();
   const btVector3 top0 = top->getCenterOfMassPosition();
 
+  // The simple pendulum: its angle from the vertical at every step, the times it crosses the
+  // vertical (linear interpolation between steps) and its largest angle between crossings.
+  const bool swing = w.swing.length > 0;
+  std::vector<double> crossings, peaks;
+  double angle = w.swing.amplitude, peak = 0;
   std::ofstream trace;
   if (!args.trace.empty()) {
     trace.open(args.trace);
@@ -114,7 +191,7 @@ int main(int argc, char **argv) {
 
   const int steps = int(std::lround(args.seconds / h));
   double sumIt = 0, maxIt = 0, sumMs = 0, maxMs = 0, maxPen = 0, maxDrift = 0, maxErr = 0,
-         maxGap = 0;
+         maxGap = 0, maxExcess = 0;
   int unsolved = 0, newSolvers = 0;
   bool fell = false, errUnknown = false;
   for (int s = 1; s <= steps; ++s) {
@@ -125,9 +202,11 @@ int main(int argc, char **argv) {
       return 2;
     }
     const SolveStats st = cadmm ? cadmm->takeStats() : bullet->takeStats();
-    const double ms = 1e3 * st.seconds, pen = w.maxPenetration();
+    const StackWorld::Penetration pen = w.penetration(erp);
+    const double ms = 1e3 * st.seconds;
     sumIt += double(st.iterations), maxIt = std::max(maxIt, double(st.iterations));
-    sumMs += ms, maxMs = std::max(maxMs, ms), maxPen = std::max(maxPen, pen);
+    sumMs += ms, maxMs = std::max(maxMs, ms), maxPen = std::max(maxPen, pen.depth);
+    maxExcess = std::max(maxExcess, pen.excess);
     if (std::isnan(st.error)) errUnknown = true;
     else maxErr = std::max(maxErr, st.error);
     unsolved += st.unsolved, newSolvers += st.newSolvers;
@@ -143,9 +222,36 @@ int main(int argc, char **argv) {
         maxGap = std::max(maxGap, double((p2p->getRigidBodyA().getWorldTransform() * p2p->getPivotInA() -
                                           p2p->getRigidBodyB().getWorldTransform() * p2p->getPivotInB())
                                              .length()));
+    if (swing) {
+      const btVector3 d = top->getCenterOfMassPosition() - w.swing.pivot;
+      const double now = std::atan2(double(d.x()), double(-d.y()));
+      if ((angle > 0) != (now > 0)) {
+        crossings.push_back((s - 1) * h + h * angle / (angle - now));
+        if (crossings.size() > 1) peaks.push_back(peak);
+        peak = 0;
+      }
+      angle = now, peak = std::max(peak, std::fabs(now));
+    }
     if (trace)
       trace << s << ',' << s * h << ',' << ms << ',' << st.iterations << ',' << number(st.error)
-            << ',' << p.y() << ',' << pen << '\n';
+            << ',' << p.y() << ',' << pen.depth << '\n';
+  }
+
+  // The simple pendulum against the exact pendulum: the k-th crossing of the vertical at
+  // (2k + 1) T / 4 (less half a step, see kCrossingSlack), every swing back to the release
+  // angle (nothing damps it unless --damping).
+  double period = NAN, maxCrossingError = NAN, maxAmplitudeError = NAN;
+  size_t expectedCrossings = 0;
+  if (swing) {
+    period = pendulumPeriod(w.swing, -double(w.world().getGravity().y()));
+    while ((2 * double(expectedCrossings) + 1) * period / 4 < steps * h - period / 8)
+      ++expectedCrossings;  // the crossings well inside the run
+    maxCrossingError = maxAmplitudeError = 0;
+    for (size_t k = 0; k < crossings.size(); ++k)
+      maxCrossingError = std::max(maxCrossingError,
+                                  std::fabs(crossings[k] - (2 * double(k) + 1) * period / 4 + h / 2));
+    for (double p : peaks)
+      maxAmplitudeError = std::max(maxAmplitudeError, std::fabs(p / w.swing.amplitude - 1));
   }
 
   // The summary: one JSON line with --json, else one "key value" per line.
@@ -160,12 +266,18 @@ int main(int argc, char **argv) {
       {"mean_solve_ms", number(sumMs / steps)},
       {"max_solve_ms", number(maxMs)},
       {"max_penetration", number(maxPen)},
+      {"max_penetration_excess", number(maxExcess)},
       {"max_drift", number(maxDrift)},
       {"fell", fell ? "true" : "false"},
       {"max_error", errUnknown ? "null" : number(maxErr)},
       {"unsolved_steps", std::to_string(unsolved)},
       {"new_solvers", std::to_string(newSolvers)},
       {"max_joint_gap", number(maxGap)},
+      {"max_checked_error", cadmm ? number(maxChecked) : "null"},
+      {"pendulum_period", number(period)},
+      {"crossings", swing ? std::to_string(crossings.size()) : "null"},
+      {"max_crossing_error", number(maxCrossingError)},
+      {"max_amplitude_error", number(maxAmplitudeError)},
   };
   std::string out = args.json ? "{" : "";
   for (size_t i = 0; i < fields.size(); ++i)
@@ -174,19 +286,36 @@ int main(int argc, char **argv) {
   std::printf("%s%s", out.c_str(), args.json ? "}\n" : "");
 
   if (args.check) {
-    std::string why;
-    if (args.scene == "pendulum") {
-      if (!(maxGap < kJointGap)) why = "the joint opened by " + number(maxGap) + " m";
-    } else if (fell) {
-      why = "a body fell";
-    } else if (!(maxDrift < 1e-3)) {
-      why = "the top body drifted " + number(maxDrift) + " m";
+    std::vector<std::string> failed;
+    const bool pendulum = args.scene == "pendulum" || swing;
+    if (pendulum && !(maxGap < kJointGap))
+      failed.push_back("the joint opened by " + shown(maxGap) + " m");
+    if (!pendulum && fell) failed.push_back("a body fell");
+    if (!pendulum && !(maxDrift < 1e-3))
+      failed.push_back("the top body drifted " + shown(maxDrift) + " m");
+    if (swing) {
+      if (crossings.size() < std::max<size_t>(expectedCrossings, 1))
+        failed.push_back("the pendulum crossed the vertical " + std::to_string(crossings.size()) +
+                         " times, the exact pendulum " + std::to_string(expectedCrossings));
+      if (!(maxCrossingError <= kCrossingSlack))
+        failed.push_back("the pendulum crossed the vertical " + shown(maxCrossingError) +
+                         " s away from the exact pendulum (period " + shown(period) + " s)");
+      if (!(maxAmplitudeError <= kAmplitudeSlack))
+        failed.push_back("the pendulum's swing amplitude is off by " +
+                         shown(100 * maxAmplitudeError) + "%");
     }
-    if (!why.empty()) {
+    if (!(maxExcess <= kMaxPenetrationExcess))
+      failed.push_back("a contact penetrated " + shown(maxExcess) +
+                       " m deeper than the Baumgarte correction leaves it");
+    if (cadmm && unsolved)
+      failed.push_back(std::to_string(unsolved) + " unsolved steps (solve above its tolerance)");
+    if (cadmm && !(maxChecked <= args.checkTolerance))
+      failed.push_back("re-measured error " + shown(maxChecked) + " above the check tolerance " +
+                       shown(args.checkTolerance));
+    for (const std::string &why : failed)
       std::printf("CHECK FAILED: %s (%s, solver %s)\n", why.c_str(), args.scene.c_str(),
                   args.solver.c_str());
-      return 1;
-    }
+    if (!failed.empty()) return 1;
     std::printf("CHECK PASSED\n");
   }
   return 0;

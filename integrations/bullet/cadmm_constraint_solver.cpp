@@ -23,6 +23,11 @@ CadmmConstraintSolver::CadmmConstraintSolver(SolverOptions options) : options_(o
     cadmm_settings_free(settings_);
     throw Error("cadmm_bullet: invalid tolerance " + std::to_string(options_.tolerance));
   }
+  if (options_.maxIterations > 0 &&
+      cadmm_settings_set_max_iterations(settings_, options_.maxIterations) != CADMM_OK) {
+    cadmm_settings_free(settings_);
+    throw Error("cadmm_bullet: invalid iteration limit " + std::to_string(options_.maxIterations));
+  }
 }
 
 CadmmConstraintSolver::~CadmmConstraintSolver() {
@@ -100,6 +105,7 @@ btScalar CadmmConstraintSolver::solveGroup(btCollisionObject **bodies, int numBo
   stats_.unsolved += status != CADMM_STATUS_SOLVED;
   stats_.contacts += current_.contacts();
   stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (options_.onSolved) options_.onSolved({current_, r.data(), v.data(), lambda.data(), status});
   return 0;
 }
 

@@ -19,12 +19,26 @@
 
 #include "contact_problem.h"
 
+#include <functional>
+
 namespace cadmm_bullet {
+
+// One group's solve as cadmm answered it: the problem handed to cadmm and the impulses,
+// velocities and joint multipliers written back (3 per contact, n, 3 per joint).
+struct SolvedGroup {
+  const ContactProblem &problem;
+  const double *r, *v, *lambda;
+  cadmm_status status;
+};
 
 struct SolverOptions {
   double tolerance = 1e-8;
-  bool warmStart = true;  // start from the previous step's impulses and velocities
-  double erp = -1;        // Baumgarte rate of the contacts; < 0: the world's m_erp2
+  uint32_t maxIterations = 0;  // cadmm's iteration limit; 0: cadmm's default
+  bool warmStart = true;       // start from the previous step's impulses and velocities
+  double erp = -1;             // Baumgarte rate of the contacts; < 0: the world's m_erp2
+  // Called after each group's solve, once its answer is written back: lets a caller check
+  // the answer on its own (the driver's --check re-measures it).
+  std::function<void(const SolvedGroup &)> onSolved;
 };
 
 // Summed over the solveGroup calls since the last takeStats().

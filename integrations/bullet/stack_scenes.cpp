@@ -23,11 +23,12 @@ StackWorld::~StackWorld() {
   for (auto &b : bodies_) world_->removeRigidBody(b.get());
 }
 
-btRigidBody *StackWorld::addBox(const btVector3 &he, double mass, const btVector3 &p) {
+btRigidBody *StackWorld::addBox(const btVector3 &he, double mass, const btVector3 &p,
+                                const btQuaternion &q) {
   shapes_.push_back(std::make_unique<btBoxShape>(he));
   btVector3 inertia(0, 0, 0);
   if (mass > 0) shapes_.back()->calculateLocalInertia(mass, inertia);
-  states_.push_back(std::make_unique<btDefaultMotionState>(btTransform(btQuaternion::getIdentity(), p)));
+  states_.push_back(std::make_unique<btDefaultMotionState>(btTransform(q, p)));
   btRigidBody::btRigidBodyConstructionInfo ci(mass, states_.back().get(), shapes_.back().get(), inertia);
   ci.m_friction = kFriction;
   bodies_.push_back(std::make_unique<btRigidBody>(ci));
@@ -43,14 +44,22 @@ void StackWorld::addJoint(std::unique_ptr<btTypedConstraint> j) {
   world_->addConstraint(joints_.back().get(), true);
 }
 
-double StackWorld::maxPenetration() const {
-  double worst = 0;
+StackWorld::Penetration StackWorld::penetration(double erp) const {
+  Penetration p;
   for (int i = 0; i < dispatcher_.getNumManifolds(); ++i) {
     const btPersistentManifold *m = dispatcher_.getManifoldByIndexInternal(i);
-    for (int j = 0; j < m->getNumContacts(); ++j)
-      worst = std::max(worst, double(-m->getContactPoint(j).getDistance()));
+    const btTransform &a = m->getBody0()->getWorldTransform();
+    const btTransform &b = m->getBody1()->getWorldTransform();
+    for (int j = 0; j < m->getNumContacts(); ++j) {
+      const btManifoldPoint &cp = m->getContactPoint(j);
+      // As btPersistentManifold::refreshContactPoints measures it, without changing the point.
+      const double before = -cp.getDistance(),
+                   after = -(a(cp.m_localPointA) - b(cp.m_localPointB)).dot(cp.m_normalWorldOnB);
+      p.depth = std::max(p.depth, before);
+      p.excess = std::max(p.excess, after - (1 - erp) * std::max(before, 0.0));
+    }
   }
-  return worst;
+  return p;
 }
 
 bool buildScene(const std::string &name, StackWorld &w) {
@@ -74,6 +83,13 @@ bool buildScene(const std::string &name, StackWorld &w) {
     w.addJoint(std::make_unique<btPoint2PointConstraint>(*a, btVector3(-1, 0, 0)));
     w.addJoint(std::make_unique<btPoint2PointConstraint>(*a, *b, btVector3(1, 0, 0),
                                                          btVector3(-0.5, 0, 0)));
+  } else if (name == "simple-pendulum") {  // a 10 cm cube 0.5 m below its joint, at 20 degrees
+    StackWorld::Swing &s = w.swing;
+    s.pivot = btVector3(0, 3, 0), s.length = 0.5, s.amplitude = 20 * SIMD_PI / 180, s.side = 0.1;
+    const btQuaternion turn(btVector3(0, 0, 1), s.amplitude);
+    const btVector3 centre = s.pivot + quatRotate(turn, btVector3(0, -s.length, 0));
+    btRigidBody *bob = w.addBox(btVector3(1, 1, 1) * (s.side / 2), 1, centre, turn);
+    w.addJoint(std::make_unique<btPoint2PointConstraint>(*bob, btVector3(0, s.length, 0)));
   } else {
     return false;
   }

@@ -17,17 +17,32 @@ class StackWorld {
   StackWorld(const StackWorld &) = delete;
   StackWorld &operator=(const StackWorld &) = delete;
 
-  // A box (half extents he) of the given mass (0: static) centred at p.
-  btRigidBody *addBox(const btVector3 &he, double mass, const btVector3 &p);
+  // A box (half extents he) of the given mass (0: static) centred at p, turned by q.
+  btRigidBody *addBox(const btVector3 &he, double mass, const btVector3 &p,
+                      const btQuaternion &q = btQuaternion::getIdentity());
   // A joint between bodies of this world (collisions between them disabled, as usual).
   void addJoint(std::unique_ptr<btTypedConstraint> j);
   btDiscreteDynamicsWorld &world() { return *world_; }
   btConstraintSolver &solver() { return *solver_; }
-  // Deepest penetration among the current contact points (m, >= 0).
-  double maxPenetration() const;
+  // Penetration of the contact points (m, >= 0). depth: the deepest, as collision detection
+  // found it at the start of the last step. excess: how much deeper any point is at the
+  // bodies' places after the step than the Baumgarte correction at rate erp leaves it,
+  // (1 - erp) of its depth at the start of the step (0 for a point that was apart).
+  struct Penetration {
+    double depth = 0, excess = 0;
+  };
+  Penetration penetration(double erp) const;
 
   std::vector<btRigidBody *> boxes;  // the dynamic boxes, bottom first
   std::vector<btVector3> rest;       // where each box should come to rest
+
+  // Scene "simple-pendulum": a cube of side `side` hanging by a ball joint at `pivot`, its
+  // centre `length` below it, released at rest `amplitude` radians from the vertical,
+  // swinging in the x-y plane. length == 0 for the other scenes.
+  struct Swing {
+    btVector3 pivot{0, 0, 0};
+    double length = 0, amplitude = 0, side = 0;
+  } swing;
 
  private:
   btDefaultCollisionConfiguration config_;
@@ -42,8 +57,8 @@ class StackWorld {
 };
 
 // Fills the world with scene "tower", "drop" (the tower falling into place), "mass-ratio-100",
-// "mass-ratio-1000", "pyramid" or "pendulum" (two boxes on btPoint2PointConstraint joints);
-// false for an unknown name.
+// "mass-ratio-1000", "pyramid", "pendulum" (two boxes on btPoint2PointConstraint joints) or
+// "simple-pendulum" (one small box on one, see StackWorld::Swing); false for an unknown name.
 bool buildScene(const std::string &name, StackWorld &w);
 // Adds a hinge between the two lowest boxes (a joint type the cadmm solver refuses).
 void addHinge(StackWorld &w);

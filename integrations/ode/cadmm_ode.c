@@ -102,7 +102,9 @@ cadmm_ode *cadmm_ode_new(const cadmm_ode_options *options) {
     if (!ctx) return NULL;
     ctx->opt = *options;
     if (cadmm_settings_new(&ctx->settings) != CADMM_OK ||
-        cadmm_settings_set_tolerance(ctx->settings, options->tolerance) != CADMM_OK) {
+        cadmm_settings_set_tolerance(ctx->settings, options->tolerance) != CADMM_OK ||
+        (options->max_iterations &&
+         cadmm_settings_set_max_iterations(ctx->settings, options->max_iterations) != CADMM_OK)) {
         cadmm_ode_free(ctx);
         return NULL;
     }
@@ -606,4 +608,20 @@ cadmm_result cadmm_ode_error(cadmm_ode *ctx, const double *r, double *error) {
     }
     rc = cadmm_problem_error(ctx->problem, r, NULL, v, error);
     return rc == CADMM_OK ? CADMM_OK : fail_cadmm(ctx, rc, "cadmm_problem_error");
+}
+
+cadmm_result cadmm_ode_last_problem(const cadmm_ode *ctx, cadmm_ode_problem *out) {
+    if (!ctx || !out) return CADMM_ERR_NULL_POINTER;
+    *out = (cadmm_ode_problem){0};
+    if (!ctx->assembled || ctx->n_contacts == 0) return CADMM_OK;
+    size_t n = 6 * ctx->n_slots, nc = ctx->n_contacts;
+    out->n = n;
+    out->n_contacts = nc;
+    out->M = (cadmm_csc){n, n, ctx->m_colptr.data, ctx->m_rowind.data, ctx->m_values.data};
+    out->H = (cadmm_csc){n, 3 * nc, ctx->h_colptr.data, ctx->h_rowind.data, ctx->h_values.data};
+    out->f = ctx->f.data;
+    out->w = ctx->w.data;
+    out->mu = ctx->mu.data;
+    out->body_index = ctx->slot_body.data;
+    return CADMM_OK;
 }

@@ -25,6 +25,7 @@
 #include <ode/ode.h>
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
 typedef struct cadmm_ode cadmm_ode;
 
@@ -33,6 +34,7 @@ typedef struct cadmm_ode_options {
     double tolerance;    /* cadmm's error measure target */
     bool warm_start;     /* start from the previous step's matched impulses */
     double match_radius; /* a previous contact point farther than this is not matched (m) */
+    uint32_t max_iterations; /* cadmm's iteration limit; 0 for cadmm's default */
 } cadmm_ode_options;
 
 /* What one step did. */
@@ -47,7 +49,8 @@ typedef struct cadmm_ode_step_info {
     double error;         /* cadmm's error measure of the solution */
 } cadmm_ode_step_info;
 
-/* Defaults: mu 0.5, tolerance 1e-8, warm start on, match radius 1 cm. */
+/* Defaults: mu 0.5, tolerance 1e-8, warm start on, match radius 1 cm, cadmm's iteration
+ * limit. */
 cadmm_ode_options cadmm_ode_default_options(void);
 
 /* A new integration context; NULL when out of memory or the options are invalid (mu or
@@ -86,5 +89,20 @@ cadmm_result cadmm_ode_impulses(cadmm_ode *ctx, double *r);
  * bodies' current velocities, on the last assembled problem: measures another solver's step
  * (e.g. ODE's, its contact forces times h) by the same yardstick. */
 cadmm_result cadmm_ode_error(cadmm_ode *ctx, const double *r, double *error);
+
+/* The last assembled problem, as handed to cadmm (valid until the next assemble or free):
+ * M v = H r + f, u = H^T v + w, r in the cones of mu. Unknowns: 6 per body touched by a
+ * contact (linear then angular velocity, world frame); body k of the problem is
+ * bodies[body_index[k]] of the list given to cadmm_ode_assemble. Lets a caller check an
+ * answer on its own. n and n_contacts are 0 (and the pointers NULL) when the last step had
+ * no contact. */
+typedef struct cadmm_ode_problem {
+    size_t n, n_contacts;
+    cadmm_csc M, H; /* n x n, n x 3 n_contacts */
+    const double *f, *w, *mu;
+    const size_t *body_index;
+} cadmm_ode_problem;
+
+cadmm_result cadmm_ode_last_problem(const cadmm_ode *ctx, cadmm_ode_problem *out);
 
 #endif /* CADMM_ODE_H */

@@ -3,7 +3,7 @@
 
 #include <string.h>
 
-const char *const scene_names = "tower|mass-ratio-100|mass-ratio-1000|pyramid";
+const char *const scene_names = "tower|mass-ratio-100|mass-ratio-1000|pyramid|slide";
 
 static const double side = 0.5; /* every box is a 0.5 m cube */
 
@@ -45,6 +45,7 @@ int scene_build(scene *s, const char *name) {
                : !strcmp(name, "mass-ratio-100")  ? 2
                : !strcmp(name, "mass-ratio-1000") ? 3
                : !strcmp(name, "pyramid")         ? 4
+               : !strcmp(name, "slide")           ? 5
                                                   : 0;
     if (!kind) return -1;
     s->world = dWorldCreate();
@@ -62,6 +63,12 @@ int scene_build(scene *s, const char *name) {
         for (int row = 0; row < 4; row++)
             for (int k = 0; k < 4 - row; k++)
                 add_box(s, 1.0, pitch * (k - (3 - row) / 2.0), 0, row_z(row));
+    }
+    if (kind == 5) {
+        /* 4 m/s: it stops after v^2 / (2 mu g) = 1.63 m at mu 0.5, in 0.82 s. */
+        add_box(s, 1.0, 0, 0, row_z(0));
+        s->launch = 4.0;
+        dBodySetLinearVel(s->bodies[0], s->launch, 0, 0);
     }
     s->top = s->n - 1;
     return 0;

@@ -17,11 +17,12 @@ typedef struct scene {
     dGeomID geoms[SCENE_MAX_BODIES];
     double half[SCENE_MAX_BODIES][3];  /* box half extents */
     double start[SCENE_MAX_BODIES][3]; /* initial positions */
+    double launch; /* "slide": the box's initial speed along +x (m/s); 0 for the stacks */
 } scene;
 
-/* Builds "tower", "mass-ratio-100", "mass-ratio-1000" or "pyramid"; 0 on success, -1 for
- * an unknown name. The world has gravity -9.81 z and ODE's default parameters except a
- * 1 mm contact surface layer. */
+/* Builds "tower", "mass-ratio-100", "mass-ratio-1000", "pyramid" or "slide" (one box on the
+ * ground launched along x at `launch`); 0 on success, -1 for an unknown name. The world has
+ * gravity -9.81 z and ODE's default parameters except a 1 mm contact surface layer. */
 int scene_build(scene *s, const char *name);
 void scene_free(scene *s);
 

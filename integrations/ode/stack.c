@@ -2,12 +2,23 @@
  * cadmm_ode_stack: box stacks simulated by ODE at 60 Hz, with contact impulses from cadmm
  * (cadmm_ode.h) or from ODE's own solvers, printing one summary line.
  *
- *   cadmm_ode_stack --scene tower|mass-ratio-100|mass-ratio-1000|pyramid
+ *   cadmm_ode_stack --scene tower|mass-ratio-100|mass-ratio-1000|pyramid|slide
  *                   --solver cadmm|ode-quickstep|ode-step --seconds S
  *                   [--json] [--trace FILE.csv] [--cold] [--check]
+ *                   [--tolerance T] [--max-iterations N] [--check-tolerance T] [--mu M]
  *
- * --check exits with 1 when a body fell, the top body drifted 1 mm or more, or (cadmm) a
- * step's solution is above the tolerance; 2 means bad arguments or a failed call.
+ * --check exits with 1 when the scene failed, after one "check failed: ..." line per failed
+ * check on stderr:
+ *  - stacks: a body fell, or the top body drifted 1 mm or more;
+ *  - slide: the box did not stop, or stopped farther than SLIDE_SLACK from v0^2 / (2 mu g)
+ *    (mu = MU, the scene's friction);
+ *  - a contact deeper than MAX_DEPTH (ODE's contact depths after every step);
+ *  - (cadmm) a step's solve ended above its tolerance, or its answer re-measured by the
+ *    driver's own copy of the error measure (check.h) on the problem cadmm_ode built is above
+ *    the check tolerance (--check-tolerance, default the solver's --tolerance, default 1e-8).
+ * 2 means bad arguments or a failed call. --tolerance and --max-iterations set cadmm's, --mu
+ * the friction coefficient handed to the solvers (default MU); CTest uses them to show that
+ * the checks fire.
  *
  * ODE's solvers get contact joints with mu 0.5 and dContactApprox1 (friction pyramid whose
  * bound scales with the normal force), default iteration counts, ERP and CFM. Their
@@ -15,6 +26,7 @@
  * same problem cadmm solves, so max_error compares like with like.
  */
 #include "cadmm_ode.h"
+#include "check.h"
 #include "scenes.h"
 
 #include <math.h>
@@ -26,13 +38,28 @@
 #define STEP (1.0 / 60.0)
 #define MU 0.5
 #define MAX_CONTACTS_PER_PAIR 8
+#define GRAVITY 9.81
+
+/* ODE pushes a contact out only beyond its surface layer (1 mm in these scenes), so a held
+ * resting contact sits up to 1 mm deep by design; the scenes start 0.5 mm deep. 0.5 mm more
+ * is a fifth of what one step of unopposed gravity sinks a resting box (g h^2 = 2.7 mm at
+ * 60 Hz): a contact that is not held shows within a step. */
+#define MAX_DEPTH 0.0015
+
+/* Semi-implicit Euler takes each step's deceleration before its move, so a box launched at
+ * v0 stops v0 h / 2 short of v0^2 / (2 mu g) (3.3 cm at 4 m/s and 60 Hz; 3.3 cm measured),
+ * plus at most one step of travel at the last step's speed (mu g h^2 = 1.4 mm). The check
+ * allows that bias plus 1 cm: 4.3 cm, 2.6% of the 1.63 m; a friction 5% off either way moves
+ * the stop by 5 to 11 cm from Coulomb's. */
+#define SLIDE_SLACK(v0) ((v0) * STEP / 2 + 0.01)
 
 typedef enum { SOLVER_CADMM, SOLVER_QUICKSTEP, SOLVER_STEP } solver_kind;
 
 typedef struct options {
     const char *scene, *trace;
     solver_kind solver;
-    double seconds;
+    double seconds, tolerance, check_tolerance, mu;
+    long max_iterations;
     int json, cold, check;
 } options;
 
@@ -46,7 +73,7 @@ typedef struct contact_list {
 typedef struct summary {
     size_t steps, solved_steps, unsolved, builds, updates, contact_sum, warm_matched;
     double iterations_sum, max_iterations, solve_ms_sum, max_solve_ms, cpu_ms_sum, max_cpu_ms;
-    double max_penetration, max_drift, max_error;
+    double max_penetration, max_drift, max_error, max_checked_error;
     int fell;
 } summary;
 
@@ -70,13 +97,15 @@ static int usage(const char *why) {
     fprintf(stderr,
             "cadmm_ode_stack: %s\n"
             "usage: cadmm_ode_stack --scene %s --solver cadmm|ode-quickstep|ode-step\n"
-            "                       --seconds S [--json] [--trace FILE.csv] [--cold] [--check]\n",
+            "                       --seconds S [--json] [--trace FILE.csv] [--cold] [--check]\n"
+            "                       [--tolerance T] [--max-iterations N] [--check-tolerance T]\n"
+            "                       [--mu M]\n",
             why, scene_names);
     return 2;
 }
 
 static int parse(int argc, char **argv, options *o) {
-    *o = (options){.solver = SOLVER_CADMM, .seconds = -1};
+    *o = (options){.solver = SOLVER_CADMM, .seconds = -1, .tolerance = 1e-8, .mu = MU};
     const char *solver = NULL;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -92,6 +121,21 @@ static int parse(int argc, char **argv, options *o) {
             o->seconds = strtod(argv[++i], &end);
             if (*end || !(o->seconds > 0) || !isfinite(o->seconds))
                 return usage("--seconds needs a positive number");
+        } else if ((!strcmp(a, "--tolerance") || !strcmp(a, "--check-tolerance") ||
+                    !strcmp(a, "--mu")) && has_value) {
+            char *end;
+            double x = strtod(argv[++i], &end);
+            if (*end || !isfinite(x) || !(x > 0 || (x == 0 && !strcmp(a, "--mu"))))
+                return usage("--tolerance and --check-tolerance need a positive number, --mu a "
+                             "non-negative one");
+            *(!strcmp(a, "--tolerance") ? &o->tolerance
+              : !strcmp(a, "--mu")      ? &o->mu
+                                        : &o->check_tolerance) = x;
+        } else if (!strcmp(a, "--max-iterations") && has_value) {
+            char *end;
+            o->max_iterations = strtol(argv[++i], &end, 10);
+            if (*end || o->max_iterations < 1 || o->max_iterations > 1000000000)
+                return usage("--max-iterations needs a positive integer");
         } else {
             char why[256];
             snprintf(why, sizeof why, "unknown argument or missing value: %s", a);
@@ -100,6 +144,7 @@ static int parse(int argc, char **argv, options *o) {
     }
     if (!o->scene) return usage("--scene is required");
     if (o->seconds < 0) return usage("--seconds is required");
+    if (o->check_tolerance == 0) o->check_tolerance = o->tolerance;
     if (!solver || !strcmp(solver, "cadmm")) o->solver = SOLVER_CADMM;
     else if (!strcmp(solver, "ode-quickstep")) o->solver = SOLVER_QUICKSTEP;
     else if (!strcmp(solver, "ode-step")) o->solver = SOLVER_STEP;
@@ -140,13 +185,13 @@ static void near_callback(void *data, dGeomID o1, dGeomID o2) {
 
 /* ODE's own step with contact joints; the impulses (feedback force times h) go to r in
  * the contact frames of cadmm_ode_frame. */
-static void ode_step(const scene *s, const contact_list *cl, solver_kind kind,
+static void ode_step(const scene *s, const contact_list *cl, solver_kind kind, double mu,
                      dJointGroupID group, dJointFeedback *feedback, double *r) {
     for (size_t c = 0; c < cl->n; c++) {
         dContact ct;
         memset(&ct, 0, sizeof ct);
         ct.surface.mode = dContactApprox1;
-        ct.surface.mu = MU;
+        ct.surface.mu = mu;
         ct.geom = cl->geoms[c];
         dJointID j = dJointCreateContact(s->world, group, &ct);
         dJointAttach(j, dGeomGetBody(ct.geom.g1), dGeomGetBody(ct.geom.g2));
@@ -166,13 +211,14 @@ static void ode_step(const scene *s, const contact_list *cl, solver_kind kind,
 }
 
 /* Drift of the top body and whether any body left the stack (moved sideways by more than
- * its half width) or sank (by more than half its half height). */
+ * its half width; not for the sliding box) or sank (by more than half its half height). */
 static void observe(const scene *s, summary *sum, double *top_z, double *drift) {
     for (size_t i = 0; i < s->n; i++) {
         const dReal *x = dBodyGetPosition(s->bodies[i]);
         double dx = x[0] - s->start[i][0], dy = x[1] - s->start[i][1];
         double side = sqrt(dx * dx + dy * dy);
-        if (side > s->half[i][0] || x[2] < s->start[i][2] - 0.5 * s->half[i][2] || !isfinite(side))
+        int sideways = side > s->half[i][0] && s->launch == 0;
+        if (sideways || x[2] < s->start[i][2] - 0.5 * s->half[i][2] || !isfinite(side))
             sum->fell = 1;
         if (i == s->top) {
             *top_z = x[2];
@@ -180,6 +226,19 @@ static void observe(const scene *s, summary *sum, double *top_z, double *drift) 
             if (side > sum->max_drift || !isfinite(side)) sum->max_drift = side;
         }
     }
+}
+
+/* The contacts of the bodies' current places (ODE's collision detection); the deepest
+ * goes to max_penetration. Returns that depth, or -1 when out of memory. */
+static double collide(const scene *s, contact_list *cl, summary *sum) {
+    cl->n = 0;
+    dSpaceCollide(s->space, cl, near_callback);
+    if (cl->failed) return -1.0;
+    double depth = 0.0;
+    for (size_t c = 0; c < cl->n; c++)
+        if (cl->geoms[c].depth > depth) depth = cl->geoms[c].depth;
+    if (depth > sum->max_penetration) sum->max_penetration = depth;
+    return depth;
 }
 
 static const char *solver_name(solver_kind k) {
@@ -208,6 +267,7 @@ static void report(const options *o, const scene *s, const summary *sum) {
         print_number("max_drift", sum->max_drift, 1);
         printf(",\"fell\":%s", sum->fell ? "true" : "false");
         print_number("max_error", sum->max_error, 1);
+        print_number("max_checked_error", sum->max_checked_error, 1);
         print_number("mean_contacts", (double)sum->contact_sum / (double)sum->steps, 1);
         if (is_cadmm)
             printf(",\"unsolved_steps\":%zu,\"solver_builds\":%zu,\"solver_updates\":%zu,"
@@ -240,13 +300,15 @@ int main(int argc, char **argv) {
         return usage("unknown --scene");
     }
     cadmm_ode_options copt = cadmm_ode_default_options();
-    copt.mu = MU;
+    copt.mu = o.mu;
+    copt.tolerance = o.tolerance;
+    copt.max_iterations = (uint32_t)o.max_iterations;
     copt.warm_start = !o.cold;
     cadmm_ode *ctx = cadmm_ode_new(&copt);
     FILE *trace = o.trace ? fopen(o.trace, "w") : NULL;
     dJointGroupID group = dJointGroupCreate(0);
     contact_list cl = {0};
-    double *r = NULL;
+    double *r = NULL, *v = NULL;
     dJointFeedback *feedback = NULL;
     summary sum = {0};
     int status = 0;
@@ -262,23 +324,14 @@ int main(int argc, char **argv) {
 
     size_t steps = (size_t)llround(o.seconds / STEP);
     for (size_t step = 0; step < steps; step++) {
-        cl.n = 0;
-        dSpaceCollide(s.space, &cl, near_callback);
-        if (cl.failed) {
-            fprintf(stderr, "cadmm_ode_stack: out of memory\n");
-            status = 2;
-            goto done;
-        }
-        double depth = 0.0;
-        for (size_t c = 0; c < cl.n; c++)
-            if (cl.geoms[c].depth > depth) depth = cl.geoms[c].depth;
-        if (depth > sum.max_penetration) sum.max_penetration = depth;
-
-        double *nr = realloc(r, (3 * cl.n + 1) * sizeof *r);
-        dJointFeedback *nf = realloc(feedback, (cl.n + 1) * sizeof *nf);
+        double depth = collide(&s, &cl, &sum); /* what the last step left */
+        double *nr = depth < 0 ? NULL : realloc(r, (3 * cl.n + 1) * sizeof *r);
+        double *nv = depth < 0 ? NULL : realloc(v, (6 * s.n + 1) * sizeof *v);
+        dJointFeedback *nf = depth < 0 ? NULL : realloc(feedback, (cl.n + 1) * sizeof *nf);
         if (nr) r = nr;
+        if (nv) v = nv;
         if (nf) feedback = nf;
-        if (!nr || !nf) {
+        if (!nr || !nv || !nf) {
             fprintf(stderr, "cadmm_ode_stack: out of memory\n");
             status = 2;
             goto done;
@@ -293,13 +346,29 @@ int main(int argc, char **argv) {
             if (cr == CADMM_OK) cr = cadmm_ode_solve(ctx, &info);
         } else if (cr == CADMM_OK) {
             t0 = now();
-            ode_step(&s, &cl, o.solver, group, feedback, r);
+            ode_step(&s, &cl, o.solver, o.mu, group, feedback, r);
         }
         stamp t1 = now();
         double ms = t1.wall - t0.wall, cpu_ms = t1.cpu - t0.cpu;
         if (cr == CADMM_OK && o.solver == SOLVER_CADMM) cr = cadmm_ode_impulses(ctx, r);
         double error = 0.0;
         if (cr == CADMM_OK) cr = cadmm_ode_error(ctx, r, &error);
+        /* The same answer re-measured by check.c: the impulses and the velocities the bodies
+         * leave the step with, on the problem the integration built. */
+        cadmm_ode_problem problem;
+        if (cr == CADMM_OK) cr = cadmm_ode_last_problem(ctx, &problem);
+        if (cr == CADMM_OK) {
+            for (size_t k = 0; k < problem.n / 6; k++) {
+                dBodyID b = s.bodies[problem.body_index[k]];
+                const dReal *lv = dBodyGetLinearVel(b), *av = dBodyGetAngularVel(b);
+                for (int d = 0; d < 3; d++) {
+                    v[6 * k + d] = lv[d];
+                    v[6 * k + 3 + d] = av[d];
+                }
+            }
+            double checked = check_error(&problem, r, v);
+            if (!(checked <= sum.max_checked_error)) sum.max_checked_error = checked;
+        }
         if (cr != CADMM_OK) {
             fprintf(stderr, "cadmm_ode_stack: step %zu: %s\n", step, cadmm_ode_last_error(ctx));
             status = 2;
@@ -329,24 +398,65 @@ int main(int argc, char **argv) {
                     info.solved ? (double)info.iterations : NAN, error, cl.n, info.rebuilt,
                     info.warm_matched, top_z, drift, depth);
     }
+    if (collide(&s, &cl, &sum) < 0) { /* what the last step left */
+        fprintf(stderr, "cadmm_ode_stack: out of memory\n");
+        status = 2;
+        goto done;
+    }
     report(&o, &s, &sum);
+    /* The sliding box against Coulomb's law: it stops after v0^2 / (2 mu g). */
+    double slid = NAN, slide_expected = NAN, final_speed = NAN;
+    if (s.launch > 0) {
+        const dReal *x = dBodyGetPosition(s.bodies[0]), *lv = dBodyGetLinearVel(s.bodies[0]);
+        slid = x[0] - s.start[0][0];
+        slide_expected = s.launch * s.launch / (2.0 * MU * GRAVITY);
+        final_speed = sqrt(lv[0] * lv[0] + lv[1] * lv[1] + lv[2] * lv[2]);
+        printf("slide: stopped after %.4g m (Coulomb: %.4g m), final speed %.3g m/s\n", slid,
+               slide_expected, final_speed);
+    }
     if (o.check) {
-        const char *why = sum.fell                     ? "a body fell"
-                          : !(sum.max_drift < 1e-3)   ? "the top body drifted 1 mm or more"
-                          : sum.unsolved               ? "a cadmm solve ended above its tolerance"
-                          : !(sum.max_error <= copt.tolerance) && o.solver == SOLVER_CADMM
-                              ? "cadmm's solution measured above the tolerance"
-                              : NULL;
-        if (why) {
-            fprintf(stderr, "cadmm_ode_stack: check failed: %s (max drift %.3g m, max error %.3g)\n",
-                    why, sum.max_drift, sum.max_error);
-            status = 1;
+        const char *failed[8];
+        char buf[4][160];
+        int nf = 0;
+        if (sum.fell) failed[nf++] = "a body fell";
+        if (s.launch == 0 && !(sum.max_drift < 1e-3))
+            failed[nf++] = "the top body drifted 1 mm or more";
+        if (s.launch > 0 && !(final_speed < 1e-3)) {
+            snprintf(buf[0], sizeof buf[0], "the sliding box did not stop (%.3g m/s)", final_speed);
+            failed[nf++] = buf[0];
         }
+        if (s.launch > 0 && !(fabs(slid - slide_expected) <= SLIDE_SLACK(s.launch))) {
+            snprintf(buf[1], sizeof buf[1],
+                     "the box slid %.4g m, Coulomb's law says %.4g m (allowed %.3g m)", slid,
+                     slide_expected, SLIDE_SLACK(s.launch));
+            failed[nf++] = buf[1];
+        }
+        if (!(sum.max_penetration <= MAX_DEPTH)) {
+            snprintf(buf[2], sizeof buf[2], "a contact penetrated %.3g m (bound %.3g m)",
+                     sum.max_penetration, MAX_DEPTH);
+            failed[nf++] = buf[2];
+        }
+        if (o.solver == SOLVER_CADMM && sum.unsolved) {
+            snprintf(buf[3], sizeof buf[3], "%zu cadmm solves ended above their tolerance",
+                     sum.unsolved);
+            failed[nf++] = buf[3];
+        }
+        char err[160];
+        if (o.solver == SOLVER_CADMM && !(sum.max_checked_error <= o.check_tolerance)) {
+            snprintf(err, sizeof err, "re-measured error %.3g above the check tolerance %.3g",
+                     sum.max_checked_error, o.check_tolerance);
+            failed[nf++] = err;
+        }
+        for (int k = 0; k < nf; k++)
+            fprintf(stderr, "cadmm_ode_stack: check failed: %s (%s, %s)\n", failed[k], o.scene,
+                    solver_name(o.solver));
+        if (nf) status = 1;
     }
 done:
     if (trace) fclose(trace);
     free(cl.geoms);
     free(r);
+    free(v);
     free(feedback);
     dJointGroupDestroy(group);
     cadmm_ode_free(ctx);

@@ -1,0 +1,20 @@
+// The driver's own copy of the error measure (docs/algorithms.md §3), written here from the
+// formula and not through cadmm, so that --check re-measures each answer cadmm hands back on
+// the problem the integration built:
+//
+//   e = ||-M v + H r + G lambda + f|| / max(||f||, ||M v||, ||H r + G lambda||)
+//     + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||),        u = H^T v + w
+//     + ||G^T v + b|| / max(||G^T v||, ||b||)                      (joints only)
+//
+// Phi(u) = (mu ||u_T||, 0, 0) per contact; a denominator at or below 1.5e-8 is skipped.
+#pragma once
+
+#include "contact_problem.h"
+
+namespace cadmm_bullet {
+
+// The measure of (r, v, lambda) on p; +inf when a term is not finite.
+double remeasureError(const ContactProblem &p, const double *r, const double *v,
+                      const double *lambda);
+
+}  // namespace cadmm_bullet

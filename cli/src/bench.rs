@@ -392,15 +392,34 @@ fn work_precision(b: &Bench, p: usize, path: &Path) -> Result<(), String> {
     let curves: Vec<Curve> = (0..b.solvers.len())
         .filter_map(|s| {
             let run = b.first(p, s)?;
-            let mut label = b.solvers[s].label();
+            let name = b.solvers[s].label();
+            let mut label = if b.solvers[s].is_cadmm() {
+                format!("{name}, one solve per tol")
+            } else {
+                name.clone()
+            };
             if run.curve.is_empty() {
                 label += &format!(" ({})", run.status);
             }
+            let trace = (!run.trace.is_empty()).then(|| {
+                let whose = if run.trace_islands > 1 {
+                    format!(" (slowest of {} islands)", run.trace_islands)
+                } else {
+                    String::new()
+                };
+                (
+                    format!(
+                        "{name} trace{whose}, clock ×{:.2} to untraced",
+                        run.trace_scale
+                    ),
+                    run.trace.clone(),
+                )
+            });
             Some(Curve {
                 label,
                 solver: s,
                 points: run.curve.clone(),
-                markers: !b.solvers[s].is_cadmm(),
+                trace,
             })
         })
         .collect();

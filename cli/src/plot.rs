@@ -80,14 +80,29 @@ pub fn profile(path: &Path, tol: f64, solvers: &[String], r: &[Vec<f64>]) -> Res
 
 /// One solver's data on a work-precision plot.
 pub struct Curve {
-    /// Legend text.
+    /// Legend text of the points.
     pub label: String,
     /// Index of the solver (for its color).
     pub solver: usize,
-    /// `(seconds, error)` points; empty when the run gave no solution.
+    /// `(seconds, error)` of untraced runs, drawn as markers; empty when no run gave a
+    /// solution.
     pub points: Vec<(f64, f64)>,
-    /// Draw markers (a peer without a trace: one point per run) rather than a line.
-    pub markers: bool,
+    /// A traced run's `(seconds, error)`, drawn as a line, and its legend text.
+    pub trace: Option<(String, Vec<(f64, f64)>)>,
+}
+
+/// A trace as steps: the error a run has measured holds until its next measurement, so a
+/// long step (a Newton polish between two ADMM iterations) shows as a drop at its end, not as
+/// a slope across its duration.
+fn staircase(pts: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut out = Vec::with_capacity(2 * pts.len());
+    for (k, &(x, y)) in pts.iter().enumerate() {
+        if k > 0 {
+            out.push((x, pts[k - 1].1));
+        }
+        out.push((x, y));
+    }
+    out
 }
 
 /// Errors below this are drawn at this value (log axis).
@@ -105,7 +120,10 @@ pub fn work_precision(
     let pts = || {
         curves
             .iter()
-            .flat_map(|c| c.points.iter().copied())
+            .flat_map(|c| {
+                let trace = c.trace.iter().flat_map(|(_, t)| t.iter().copied());
+                c.points.iter().copied().chain(trace)
+            })
             .filter(|&(x, y)| x > 0.0 && x.is_finite() && y.is_finite())
     };
     let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0f64, f64::INFINITY, 0f64);
@@ -161,35 +179,37 @@ pub fn work_precision(
             )))
             .map_err(err)?;
     }
-    for c in curves {
-        let col = color(c.solver);
-        let data: Vec<(f64, f64)> = c
-            .points
-            .iter()
+    let drawable = |pts: &[(f64, f64)]| -> Vec<(f64, f64)> {
+        pts.iter()
             .filter(|&&(x, y)| x > 0.0 && x.is_finite() && y.is_finite())
             .map(|&(x, y)| (x, y.max(ERROR_FLOOR)))
-            .collect();
-        let label = c.label.as_str();
-        if c.markers {
-            if data.len() > 1 {
-                chart
-                    .draw_series(LineSeries::new(data.clone(), col.stroke_width(1)))
-                    .map_err(err)?;
-            }
+            .collect()
+    };
+    for c in curves {
+        let col = color(c.solver);
+        let data = drawable(&c.points);
+        if let Some((label, trace)) = &c.trace {
             chart
-                .draw_series(data.iter().map(|&p| Circle::new(p, 6, col.filled())))
+                .draw_series(LineSeries::new(
+                    staircase(&drawable(trace)),
+                    col.stroke_width(2),
+                ))
                 .map_err(err)?
-                .label(label)
-                .legend(move |(x, y)| Circle::new((x + 12, y), 5, col.filled()));
-        } else {
-            chart
-                .draw_series(LineSeries::new(data, col.stroke_width(2)))
-                .map_err(err)?
-                .label(label)
+                .label(label.as_str())
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 24, y)], col.stroke_width(2))
                 });
+        } else if data.len() > 1 {
+            // Runs of a solver without a trace, joined to be told apart from other solvers.
+            chart
+                .draw_series(LineSeries::new(data.clone(), col.stroke_width(1)))
+                .map_err(err)?;
         }
+        chart
+            .draw_series(data.iter().map(|&p| Circle::new(p, 6, col.filled())))
+            .map_err(err)?
+            .label(c.label.as_str())
+            .legend(move |(x, y)| Circle::new((x + 12, y), 5, col.filled()));
     }
     chart
         .configure_series_labels()
@@ -200,4 +220,25 @@ pub fn work_precision(
         .draw()
         .map_err(err)?;
     root.present().map_err(err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::staircase;
+
+    #[test]
+    fn trace_holds_each_error_until_the_next_measurement() {
+        let pts = [(1.0, 1e-2), (2.0, 1e-4), (10.0, 1e-12)];
+        assert_eq!(
+            staircase(&pts),
+            vec![
+                (1.0, 1e-2),
+                (2.0, 1e-2),
+                (2.0, 1e-4),
+                (10.0, 1e-4),
+                (10.0, 1e-12)
+            ]
+        );
+        assert!(staircase(&[]).is_empty());
+    }
 }

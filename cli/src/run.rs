@@ -53,8 +53,17 @@ pub struct Run {
     pub error: Option<f64>,
     /// Seconds to reach each tolerance (same order as `Limits::tols`); infinite on failure.
     pub to_tol: Vec<f64>,
-    /// `(seconds, error)` for the work-precision plot.
+    /// `(seconds, error)` of each untraced run, as a user runs it (cadmm: one per tolerance;
+    /// a peer: one per run), for the work-precision plot.
     pub curve: Vec<(f64, f64)>,
+    /// cadmm: the traced run's `(seconds, error)`, its solve clock multiplied by
+    /// `trace_scale`; empty for a peer.
+    pub trace: Vec<(f64, f64)>,
+    /// Untraced solve seconds over traced solve seconds at the smallest tolerance: the trace
+    /// itself costs time, and the plot must not show that cost as the solver's.
+    pub trace_scale: f64,
+    /// Contact islands of the traced run: above 1, the trace is its slowest island's.
+    pub trace_islands: usize,
     /// A message worth printing (stderr of a failed child).
     pub note: Option<String>,
 }
@@ -69,6 +78,9 @@ impl Run {
             error: None,
             to_tol: vec![f64::INFINITY; n_tols],
             curve: Vec::new(),
+            trace: Vec::new(),
+            trace_scale: 1.0,
+            trace_islands: 1,
             note,
         }
     }
@@ -221,13 +233,35 @@ pub fn cadmm(
             }
         })
         .collect();
-    // The curve of the traced run, shifted by its setup.
+    // The untraced runs as points: seconds to return and the error they returned (the
+    // smallest tolerance's re-measured above).
+    let mut curve: Vec<(f64, f64)> = runs
+        .iter()
+        .map(|r| {
+            let e = if r["tol"].as_f64() == Some(lim.tmin()) {
+                error
+            } else {
+                number(&r["error"])
+            };
+            (total(r), e)
+        })
+        .collect();
+    curve.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // The traced run's curve, its solve clock scaled to the untraced solve's and shifted by
+    // the untraced setup: the shape of the error over the run, at the time a user sees.
     let setup = number(&last["setup_seconds"]);
+    let traced = number(&j["trace_solve_seconds"]);
+    let untraced = number(&last["solve_seconds"]);
+    let trace_scale = if traced.is_finite() && traced > 0.0 && untraced.is_finite() {
+        untraced / traced
+    } else {
+        1.0
+    };
     let trace: Vec<(f64, f64)> = j["trace"]
         .as_array()
         .map(|a| {
             a.iter()
-                .map(|p| (setup + number(&p[0]), number(&p[1])))
+                .map(|p| (setup + trace_scale * number(&p[0]), number(&p[1])))
                 .collect()
         })
         .unwrap_or_default();
@@ -237,7 +271,10 @@ pub fn cadmm(
         seconds: Some(seconds),
         error: Some(error),
         to_tol,
-        curve: thin(trace),
+        curve,
+        trace: thin(trace),
+        trace_scale,
+        trace_islands: j["trace_islands"].as_u64().map_or(1, |k| k as usize),
         note: None,
     }
 }

@@ -126,6 +126,9 @@ impl Peer {
             error: Some(error),
             to_tol: vec![f64::INFINITY; n],
             curve: vec![(secs, error)],
+            trace: Vec::new(),
+            trace_scale: 1.0,
+            trace_islands: 1,
             note: None,
         }
     }

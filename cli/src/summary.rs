@@ -116,8 +116,9 @@ pub fn markdown(b: &Bench) -> String {
         s,
         "\nTimes are wall seconds of the solve, the median over repeats; reading the file is \
          not counted. cadmm: setup (factorization) plus the solve, as a user runs it (no \
-         trace), one new solver per tolerance; a separate traced run only draws the \
-         work-precision curve. Siconos: the driver call (its own setup included) in a child \
+         trace), one new solver per tolerance; a separate traced run only draws the line of \
+         the work-precision plots, its solve clock scaled to the untraced solve's (the trace \
+         itself costs time), while the dots are the untraced solves. Siconos: the driver call (its own setup included) in a child \
          process; it has no trace, so its time to a tolerance is the time of a whole run {} \
          when its final error is at most that tolerance. Every error is re-measured with \
          cadmm's `problem_error` (docs/algorithms.md §3) on the solution the solver \

@@ -6,9 +6,12 @@
 //! the timed figures), then one traced solve at the smallest tolerance whose trace only
 //! draws the error-against-time curve. Writes the solution of the untraced solve at the
 //! smallest tolerance to `--out` and prints one JSON line:
-//! `{"runs": [{"tol", "status", "iterations", "setup_seconds", "solve_seconds"}, ...],
-//!   "trace": [[seconds, error|null], ...]}` (runs in the order of `--tols`; trace seconds
-//! count from the start of the traced solve, setup excluded).
+//! `{"runs": [{"tol", "status", "iterations", "error", "setup_seconds", "solve_seconds"}, ...],
+//!   "trace_solve_seconds": s, "trace_islands": k, "trace": [[seconds, error|null], ...]}`
+//! (runs in the order of `--tols`; trace seconds count from the start of the traced solve,
+//! setup excluded; `trace_solve_seconds` is the traced solve's own time, longer than the
+//! untraced one by what the trace costs; with `trace_islands` > 1 the trace is that of the
+//! island that needed the most iterations, its error that island's).
 
 use crate::solve::json_number;
 use cadmm::{fclib, Problem, Settings, Solver, VariantChoice};
@@ -72,10 +75,11 @@ fn work(a: &WorkerArgs) -> Result<String, cadmm::Error> {
         let sep = if k == 0 { "" } else { ", " };
         let _ = write!(
             runs,
-            "{sep}{{\"tol\": {}, \"status\": \"{}\", \"iterations\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}}}",
+            "{sep}{{\"tol\": {}, \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}}}",
             json_number(tol),
             status.name(),
             st.iterations,
+            json_number(st.error),
             json_number(st.setup_seconds),
             json_number(st.solve_seconds),
         );
@@ -92,7 +96,11 @@ fn work(a: &WorkerArgs) -> Result<String, cadmm::Error> {
             json_number(p.error)
         );
     }
-    Ok(format!("{{\"runs\": [{runs}], \"trace\": [{trace}]}}"))
+    Ok(format!(
+        "{{\"runs\": [{runs}], \"trace_solve_seconds\": {}, \"trace_islands\": {}, \"trace\": [{trace}]}}",
+        json_number(solver.stats().solve_seconds),
+        solver.stats().islands
+    ))
 }
 
 /// Runs the worker: exit code 0 with the JSON line, 2 with a message on stderr.

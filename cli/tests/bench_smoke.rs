@@ -6,16 +6,13 @@
 //! around, by `../shared/tools/fc_error.py`. With Siconos importable by `/usr/bin/python3`
 //! (or `$CADMM_PYTHON`), a second run includes `siconos:ADMM`.
 
+mod common;
+
+use common::{shared, siconos_python};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 const FILES: [&str; 2] = ["global/GFC3D_Example1.hdf5", "local/FC3D_Example1.hdf5"];
-
-fn shared() -> PathBuf {
-    std::env::var_os("CADMM_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared"))
-}
 
 fn problem_path(rel: &str) -> PathBuf {
     let p = shared().join("data/fclib").join(rel);
@@ -65,15 +62,6 @@ fn python_with_h5py() -> Option<&'static str> {
             .output()
             .is_ok_and(|o| o.status.success())
     })
-}
-
-fn siconos_python() -> Option<String> {
-    let py = std::env::var("CADMM_PYTHON").unwrap_or_else(|_| "/usr/bin/python3".into());
-    Command::new(&py)
-        .args(["-c", "import siconos.numerics, h5py, scipy"])
-        .output()
-        .is_ok_and(|o| o.status.success())
-        .then_some(py)
 }
 
 /// The error fc_error.py computes, at full precision (its command line prints 4 digits).

@@ -522,9 +522,7 @@ pub fn irregular_pile(nx: usize, ny: usize, nz: usize) -> Scene {
                         }
                     }
                 }
-                let [x, y, mut z] = rest.unwrap_or_else(|| [x0, y0, clear(x0, y0)]);
-                // A small lift, so that not every supporting gap is exactly zero.
-                z += 0.02 * r * rand();
+                let [x, y, z] = rest.unwrap_or_else(|| [x0, y0, clear(x0, y0)]);
                 let m = 8.0 * r * r * r;
                 let body = s.body(m, [0.4 * m * r * r; 3], [x, y, z]);
                 s.bodies[body].v = [0.1 * (rand() - 0.5), 0.1 * (rand() - 0.5), -0.1 * rand()];

@@ -393,6 +393,268 @@ pub fn pile(nx: usize, ny: usize, nz: usize) -> Scene {
     s
 }
 
+/// Widest radius spread of [`irregular_pile`]: radii are uniform in `[R_MIN, R_MAX]`.
+pub const R_MIN: f64 = 0.35;
+pub const R_MAX: f64 = 0.5;
+/// Two spheres (or a sphere and the ground) are in contact when their gap is below this
+/// fraction of the smaller radius.
+pub const GAP_FRACTION: f64 = 0.1;
+
+/// The upper of the two points at distances `d` from the centres `c` (a sphere resting on
+/// three), if they exist.
+fn touching(c: [V3; 3], d: [f64; 3]) -> Option<V3> {
+    let dot = |p: V3, q: V3| p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
+    let (a, b) = (sub(c[1], c[0]), sub(c[2], c[0]));
+    let e = dot(a, a).sqrt();
+    let ex = [a[0] / e, a[1] / e, a[2] / e];
+    let i = dot(ex, b);
+    let rest = [b[0] - i * ex[0], b[1] - i * ex[1], b[2] - i * ex[2]];
+    let j = dot(rest, rest).sqrt();
+    if e < 1e-9 || j < 1e-9 {
+        return None;
+    }
+    let ey = [rest[0] / j, rest[1] / j, rest[2] / j];
+    let mut ez = cross(ex, ey);
+    if ez[2] < 0.0 {
+        ez = [-ez[0], -ez[1], -ez[2]];
+    }
+    let x = (d[0] * d[0] - d[1] * d[1] + e * e) / (2.0 * e);
+    let y = (d[0] * d[0] - d[2] * d[2] + i * i + j * j) / (2.0 * j) - i / j * x;
+    let z2 = d[0] * d[0] - x * x - y * y;
+    if z2 < 0.0 {
+        return None;
+    }
+    let z = z2.sqrt();
+    Some([0, 1, 2].map(|k| c[0][k] + x * ex[k] + y * ey[k] + z * ez[k]))
+}
+
+/// An irregular pile of about `nx x ny x nz` polydisperse spheres (radii uniform in
+/// `[R_MIN, R_MAX]`, density such that a sphere of radius 0.5 weighs 1, small random
+/// velocities), dropped one by one over the sites of a jittered lattice whose odd layers sit
+/// over the hollows of the even ones: each settles in the lowest hollow of three spheres
+/// below within 0.5 of its site, or straight down where there is none, so spheres rest on
+/// spheres of other columns. Contacts join the pairs, and the spheres and the ground, whose
+/// gap is below `GAP_FRACTION` times the smaller radius: the normal joins the centres, the
+/// point is midway across the gap, and `w_N = gap / STEP`, so the gap may close within the
+/// step but not be crossed. No two spheres overlap. Bottom spheres that end up in no
+/// contact but the ground's are left out, so the pile is one island. Deterministic.
+pub fn irregular_pile(nx: usize, ny: usize, nz: usize) -> Scene {
+    let mut s = Scene::default();
+    let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut rand = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut radius: Vec<f64> = Vec::with_capacity(nx * ny * nz);
+    // Spheres placed so far by unit column cell of the horizontal plane (cells 0..=nx, 0..=ny
+    // hold every centre): a drop only looks at the 3 x 3 cells around it.
+    let (cx, cy) = (nx + 2, ny + 2);
+    let mut columns: Vec<Vec<usize>> = vec![Vec::new(); cx * cy];
+    let cell = |x: f64| (x + 0.5).floor().max(0.0) as usize;
+    for k in 0..nz {
+        let shift = 0.5 * (k % 2) as f64;
+        for j in 0..ny {
+            for i in 0..nx {
+                let r = R_MIN + (R_MAX - R_MIN) * rand();
+                // Within the disc of radius 0.5 - r around the lattice site, so that spheres
+                // of one layer never overlap.
+                let (rho, phi) = ((0.5 - r) * rand().sqrt(), std::f64::consts::TAU * rand());
+                let (x0, y0) = (
+                    i as f64 + shift + rho * phi.cos(),
+                    j as f64 + shift + rho * phi.sin(),
+                );
+                // Spheres placed near the site (two cells around: the sphere may roll up to
+                // 0.5 away from it).
+                let (gi, gj) = (cell(x0), cell(y0));
+                let mut near = Vec::new();
+                for a in gi.saturating_sub(2)..=(gi + 2).min(cx - 1) {
+                    for b in gj.saturating_sub(2)..=(gj + 2).min(cy - 1) {
+                        near.extend_from_slice(&columns[b * cx + a]);
+                    }
+                }
+                // Lowest height at (x, y) clear of the ground and of every sphere near.
+                let clear = |x: f64, y: f64| {
+                    let mut z = r;
+                    for &o in &near {
+                        let p = s.bodies[o].x;
+                        let reach = r + radius[o];
+                        let dh2 = (x - p[0]).powi(2) + (y - p[1]).powi(2);
+                        if dh2 < reach * reach {
+                            z = z.max(p[2] + (reach * reach - dh2).sqrt());
+                        }
+                    }
+                    z
+                };
+                // Where it settles: the lowest rest on three of the five highest spheres
+                // under the site that is clear of all others and within 0.5 of the site
+                // (a sphere dropped there rolls into such a hollow); else straight down.
+                let mut under: Vec<(f64, usize)> = near
+                    .iter()
+                    .filter_map(|&o| {
+                        let p = s.bodies[o].x;
+                        let reach = r + radius[o];
+                        let dh2 = (x0 - p[0]).powi(2) + (y0 - p[1]).powi(2);
+                        (dh2 < (reach + 0.5).powi(2))
+                            .then(|| (p[2] + (reach * reach - dh2).max(0.0).sqrt(), o))
+                    })
+                    .collect();
+                under.sort_by(|a, b| b.0.total_cmp(&a.0));
+                under.truncate(5);
+                let mut rest: Option<V3> = None;
+                for a in 0..under.len() {
+                    for b in a + 1..under.len() {
+                        for c in b + 1..under.len() {
+                            let o = [under[a].1, under[b].1, under[c].1];
+                            let Some(p) =
+                                touching(o.map(|o| s.bodies[o].x), o.map(|o| r + radius[o]))
+                            else {
+                                continue;
+                            };
+                            let moved2 = (p[0] - x0).powi(2) + (p[1] - y0).powi(2);
+                            if moved2 < 0.25
+                                && p[2] >= clear(p[0], p[1]) - 1e-9
+                                && rest.is_none_or(|q| p[2] < q[2])
+                            {
+                                rest = Some(p);
+                            }
+                        }
+                    }
+                }
+                let [x, y, z] = rest.unwrap_or_else(|| [x0, y0, clear(x0, y0)]);
+                let m = 8.0 * r * r * r;
+                let body = s.body(m, [0.4 * m * r * r; 3], [x, y, z]);
+                s.bodies[body].v = [0.1 * (rand() - 0.5), 0.1 * (rand() - 0.5), -0.1 * rand()];
+                radius.push(r);
+                columns[cell(y) * cx + cell(x)].push(body);
+            }
+        }
+    }
+    // Pairs within reach, by cells of the largest contact distance (27 cells per sphere).
+    let size = 2.0 * R_MAX * (1.0 + GAP_FRACTION);
+    let key = |p: V3| {
+        (
+            (p[0] / size).floor() as i64,
+            (p[1] / size).floor() as i64,
+            (p[2] / size).floor() as i64,
+        )
+    };
+    let mut grid: std::collections::HashMap<(i64, i64, i64), Vec<usize>> =
+        std::collections::HashMap::new();
+    for (b, body) in s.bodies.iter().enumerate() {
+        grid.entry(key(body.x)).or_default().push(b);
+    }
+    for a in 0..s.bodies.len() {
+        let (xa, ra) = (s.bodies[a].x, radius[a]);
+        if xa[2] - ra < GAP_FRACTION * ra {
+            let gap = xa[2] - ra;
+            s.contacts.push(Contact {
+                a,
+                b: None,
+                point: [xa[0], xa[1], 0.5 * gap],
+                normal: [0.0, 0.0, 1.0],
+                mu: 0.5,
+                w: [gap / STEP, 0.0, 0.0],
+            });
+        }
+        let (ka, kb, kc) = key(xa);
+        for dk in -1..=1 {
+            for dj in -1..=1 {
+                for di in -1..=1 {
+                    let Some(cell) = grid.get(&(ka + di, kb + dj, kc + dk)) else {
+                        continue;
+                    };
+                    for &b in cell {
+                        if b <= a {
+                            continue;
+                        }
+                        let (xb, rb) = (s.bodies[b].x, radius[b]);
+                        let d = sub(xa, xb);
+                        let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                        let gap = dist - ra - rb;
+                        if gap < GAP_FRACTION * ra.min(rb) {
+                            // n from b to a; the point midway between the two surfaces.
+                            let n = [d[0] / dist, d[1] / dist, d[2] / dist];
+                            let t = rb + 0.5 * gap;
+                            s.contacts.push(Contact {
+                                a,
+                                b: Some(b),
+                                point: [xb[0] + t * n[0], xb[1] + t * n[1], xb[2] + t * n[2]],
+                                normal: n,
+                                mu: 0.5,
+                                w: [gap / STEP, 0.0, 0.0],
+                            });
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // A few spheres of the bottom layer that nothing came to rest on touch only the
+    // ground: islands of their own, left out so that the pile is one island.
+    keep_largest_island(&mut s);
+    s
+}
+
+/// The island of each body: its index among the groups of bodies joined by contacts between
+/// bodies (a body on the ground alone is a group of its own), and the number of groups.
+pub fn islands(s: &Scene) -> (Vec<usize>, usize) {
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let mut parent: Vec<usize> = (0..s.bodies.len()).collect();
+    for c in &s.contacts {
+        if let Some(b) = c.b {
+            let (ra, rb) = (root(&mut parent, c.a), root(&mut parent, b));
+            parent[ra] = rb;
+        }
+    }
+    let mut index = vec![usize::MAX; s.bodies.len()];
+    let mut count = 0;
+    let island = (0..s.bodies.len())
+        .map(|i| {
+            let r = root(&mut parent, i);
+            if index[r] == usize::MAX {
+                index[r] = count;
+                count += 1;
+            }
+            index[r]
+        })
+        .collect();
+    (island, count)
+}
+
+/// Keeps the largest island of `s` (bodies renumbered in order, their contacts with it).
+fn keep_largest_island(s: &mut Scene) {
+    let (island, count) = islands(s);
+    let mut size = vec![0usize; count];
+    for &i in &island {
+        size[i] += 1;
+    }
+    let Some(keep) = (0..count).max_by_key(|&i| size[i]) else {
+        return;
+    };
+    let mut new_index = vec![usize::MAX; s.bodies.len()];
+    let mut bodies = Vec::with_capacity(size[keep]);
+    for (b, body) in s.bodies.iter().enumerate() {
+        if island[b] == keep {
+            new_index[b] = bodies.len();
+            bodies.push(body.clone());
+        }
+    }
+    s.contacts.retain(|c| island[c.a] == keep);
+    for c in &mut s.contacts {
+        c.a = new_index[c.a];
+        c.b = c.b.map(|b| new_index[b]);
+    }
+    s.bodies = bodies;
+}
+
 /// Mass ratios of the stiff family.
 pub const RATIOS: [f64; 5] = [1.0, 1e2, 1e4, 1e6, 1e8];
 /// Friction coefficients of the friction family.

@@ -475,3 +475,67 @@ pub fn norm2(x: &[f64]) -> f64 {
 pub fn dot(x: &[f64], y: &[f64]) -> f64 {
     x.iter().zip(y).map(|(a, b)| a * b).sum()
 }
+
+/// A matrix stored by rows beside its compressed-column original: `y = A x` then reads
+/// `x` and writes each `y_i` once (a gather, where the column product scatters into `y`),
+/// which is the faster product when it runs at every iteration. New values of the
+/// original are copied in through the entry map, without allocation.
+#[derive(Debug, Clone)]
+pub(crate) struct RowMajor {
+    /// Entries of row `i`: `start[i]..start[i + 1]`.
+    start: Vec<usize>,
+    col: Vec<usize>,
+    /// Where each entry sits in the original's values.
+    source: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl RowMajor {
+    /// The rows of `a`.
+    pub fn new(a: &CscMatrix) -> Self {
+        let mut start = vec![0usize; a.nrows + 1];
+        for &i in &a.rowind {
+            start[i + 1] += 1;
+        }
+        for i in 0..a.nrows {
+            start[i + 1] += start[i];
+        }
+        let mut next = start.clone();
+        let mut col = vec![0; a.nnz()];
+        let mut source = vec![0; a.nnz()];
+        for j in 0..a.ncols {
+            for k in a.colptr[j]..a.colptr[j + 1] {
+                let at = &mut next[a.rowind[k]];
+                col[*at] = j;
+                source[*at] = k;
+                *at += 1;
+            }
+        }
+        let mut rows = Self {
+            start,
+            col,
+            source,
+            values: vec![0.0; a.nnz()],
+        };
+        rows.take_values(a);
+        rows
+    }
+
+    /// Takes the values of `a` (the matrix it was made from, or one with its pattern).
+    pub fn take_values(&mut self, a: &CscMatrix) {
+        for (v, &k) in self.values.iter_mut().zip(&self.source) {
+            *v = a.values[k];
+        }
+    }
+
+    /// `y = alpha A x + beta y`.
+    pub fn mul_vec(&self, alpha: f64, x: &[f64], beta: f64, y: &mut [f64]) {
+        for (i, yi) in y.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for k in self.start[i]..self.start[i + 1] {
+                s += self.values[k] * x[self.col[k]];
+            }
+            *yi = alpha * s + if beta == 0.0 { 0.0 } else { beta * *yi };
+        }
+    }
+}

@@ -9,7 +9,7 @@
 //! M) fall back to their diagonal.
 
 use super::dense::{cholesky, cholesky_solve};
-use crate::csc::{dot, norm2, CscMatrix};
+use crate::csc::{dot, norm2, CscMatrix, RowMajor};
 use crate::islands::DisjointSets;
 use crate::types::Error;
 
@@ -28,11 +28,11 @@ pub struct Gram<'a> {
     pub active: &'a [f64],
 }
 
-/// When a solve stops: at `||b - A x|| <= max(floor, min(tol, reduction * r0))`, `r0` the
+/// When a solve stops: at `||b - A x|| <= max(floor, tol, reduction * r0)`, `r0` the
 /// residual of the starting point, or after `max_iterations`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PcgStop {
-    /// Residual that is always good enough.
+    /// Residual that is good enough whatever the start.
     pub tol: f64,
     /// Factor by which the starting residual must shrink (1 for none).
     pub reduction: f64,
@@ -77,6 +77,8 @@ pub struct GramPcg {
     q: Vec<f64>,
     /// `D H^T p`, in the contact space.
     contact: Vec<f64>,
+    /// H by rows, for the product `H (D H^T p)`.
+    h_rows: RowMajor,
     /// Conjugate-gradient iterations over every solve.
     iterations: usize,
     /// Numeric block factorizations so far.
@@ -117,6 +119,7 @@ impl GramPcg {
             p: vec![0.0; n],
             q: vec![0.0; n],
             contact: vec![0.0; a.h.ncols()],
+            h_rows: RowMajor::new(a.h),
             iterations: 0,
             factorizations: 0,
         };
@@ -137,6 +140,7 @@ impl GramPcg {
     /// Takes new values of M, H and the active rows on the same patterns (no allocation);
     /// the next [`GramPcg::set_rho`] refactorizes the blocks.
     pub fn take_values(&mut self, Gram { m, h, active }: Gram) {
+        self.h_rows.take_values(h);
         self.mass.fill(0.0);
         self.gram.fill(0.0);
         for j in 0..m.ncols() {
@@ -215,7 +219,7 @@ impl GramPcg {
             *c *= a;
         }
         m.mul_vec(1.0, x, 0.0, y);
-        h.mul_vec(self.rho, &self.contact, 1.0, y);
+        self.h_rows.mul_vec(self.rho, &self.contact, 1.0, y);
     }
 
     /// `z = P^-1 r`, block by block.
@@ -252,7 +256,7 @@ impl GramPcg {
             residual: norm2(&r),
             converged: false,
         };
-        let tol = stop.tol.min(stop.reduction * out.residual).max(stop.floor);
+        let tol = stop.tol.max(stop.reduction * out.residual).max(stop.floor);
         if out.residual > tol {
             self.precondition(&r, &mut z);
             p.copy_from_slice(&z);
@@ -378,7 +382,7 @@ mod tests {
         let mut x = vec![0.0; 5];
         let stop = PcgStop {
             tol: 1e-12,
-            reduction: 1.0,
+            reduction: 0.0,
             floor: 0.0,
             max_iterations: 50,
         };

@@ -268,11 +268,12 @@ fn velocity_system(
     choice: LinearSolver,
 ) -> Result<(VelocitySystem, FactorKind), Error> {
     let iterative = || VelocitySystem::Iterative(GramPcg::new(gram(p, active)));
-    let (matrix, assembly, kind) = system_matrix(p, active);
-    let eligible = kind == FactorKind::Cholesky;
+    // Checked before anything is assembled: the matrix-free backend never forms the matrix.
+    let eligible = p.n_joints() == 0 && p.m.is_symmetric();
     if eligible && choice == LinearSolver::Iterative {
-        return Ok((iterative(), kind));
+        return Ok((iterative(), FactorKind::Cholesky));
     }
+    let (matrix, assembly, kind) = system_matrix(p, active);
     let factor = Factor::new("M + rho H H^T", matrix, kind)?;
     if eligible && choice == LinearSolver::Auto && matrix_free_pays(p, &factor) {
         return Ok((iterative(), kind));

@@ -124,6 +124,12 @@ impl CoupledSolver {
         self.settings.threads = settings.threads;
     }
 
+    /// Threads for the linear algebra of this problem (a problem solved whole: the islands
+    /// of a split scene take the threads instead).
+    pub(crate) fn set_linear_threads(&mut self, threads: usize) {
+        self.form.set_threads(threads);
+    }
+
     /// Floors of the error measure (an island's share of a scene's measure).
     pub(crate) fn set_measure_floors(&mut self, floors: Floors) {
         self.form.set_measure_floors(floors);

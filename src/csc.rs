@@ -528,14 +528,18 @@ impl RowMajor {
         }
     }
 
-    /// `y = alpha A x + beta y`.
-    pub fn mul_vec(&self, alpha: f64, x: &[f64], beta: f64, y: &mut [f64]) {
-        for (i, yi) in y.iter_mut().enumerate() {
-            let mut s = 0.0;
-            for k in self.start[i]..self.start[i + 1] {
-                s += self.values[k] * x[self.col[k]];
-            }
-            *yi = alpha * s + if beta == 0.0 { 0.0 } else { beta * *yi };
-        }
+    /// Stored entries.
+    pub fn entries(&self) -> usize {
+        self.values.len()
+    }
+
+    /// Row `i` of the matrix times `x`.
+    pub fn row_dot(&self, i: usize, x: &[f64]) -> f64 {
+        let r = self.start[i]..self.start[i + 1];
+        self.values[r.clone()]
+            .iter()
+            .zip(&self.col[r])
+            .map(|(v, &j)| v * x[j])
+            .sum()
     }
 }

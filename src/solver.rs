@@ -72,7 +72,9 @@ impl Solver {
             }
             _ => {
                 let islands = usize::from(problem.n_contacts() > 0);
-                let solver = CoupledSolver::new(problem, settings.clone(), NewtonFirst::IfSmall)?;
+                let mut solver =
+                    CoupledSolver::new(problem, settings.clone(), NewtonFirst::IfSmall)?;
+                solver.set_linear_threads(settings.threads);
                 (Layout::Whole(Box::new(solver)), islands)
             }
         };
@@ -104,7 +106,10 @@ impl Solver {
         self.inner = working_settings(&settings);
         self.settings = settings;
         match &mut self.layout {
-            Layout::Whole(s) => s.update_settings(&self.inner),
+            Layout::Whole(s) => {
+                s.update_settings(&self.inner);
+                s.set_linear_threads(self.inner.threads);
+            }
             Layout::Split(split) => split.update_settings(&self.inner),
         }
         Ok(())

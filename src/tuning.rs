@@ -176,3 +176,11 @@ pub const MATRIX_FREE_MIN_FILL: usize = 1_000_000;
 /// at 0.1, 1 565 and 1.7 s at 0.3; lattice pile of 2 816: 8 710 and 5.5 s, 11 650 and
 /// 5.8 s).
 pub const PCG_REDUCTION: f64 = 0.1;
+
+/// The matrix-free products run on the solver's threads (`Settings::threads`, for a problem
+/// solved whole) when `M` and `H` hold at least this many entries together: below,
+/// starting scoped threads twice per conjugate-gradient iteration costs what it saves (2
+/// threads against 1, to 1e-4: the 2 816-contact lattice pile, 3.4e4 entries, 1.6x slower;
+/// the 10 200-contact lattice, 1.2e5, even; the 10 050-contact irregular pile, 3.6e5, 1.13x
+/// faster; the 25 271-contact one, 8.6e5, 1.2x faster; single runs).
+pub const PARALLEL_MIN_ENTRIES: usize = 200_000;

@@ -46,6 +46,7 @@ CADMM_CONFIGS = {
     "admm": ["--newton", "off"],               # ADMM alone, no Newton phase
     "direct": ["--linear-solver", "direct"],
     "iterative": ["--linear-solver", "iterative"],
+    "auto-2t": ["--threads", "2"],             # a problem solved whole: threaded products
 }
 # Siconos solvers of siconos_solve.py for global problems.
 SICONOS_DEFAULT = "NSGS_WR,ADMM"

@@ -563,6 +563,12 @@ impl ContactForm for GlobalSplitting {
         matches!(self.system, VelocitySystem::Iterative(_))
     }
 
+    fn set_threads(&mut self, threads: usize) {
+        if let VelocitySystem::Iterative(pcg) = &mut self.system {
+            pcg.set_threads(threads);
+        }
+    }
+
     fn linear_iterations(&self) -> usize {
         match &self.system {
             VelocitySystem::Iterative(pcg) => pcg.iterations(),

@@ -74,6 +74,9 @@ pub(crate) trait ContactForm: Splitting + Send {
     fn matrix_free(&self) -> bool {
         false
     }
+    /// Threads the form's linear algebra may use (the matrix-free products of a problem
+    /// solved whole); the results do not depend on it.
+    fn set_threads(&mut self, _threads: usize) {}
     /// Conjugate-gradient iterations of the matrix-free backend so far.
     fn linear_iterations(&self) -> usize {
         0

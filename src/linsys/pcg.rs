@@ -11,7 +11,27 @@
 use super::dense::{cholesky, cholesky_solve};
 use crate::csc::{dot, norm2, CscMatrix, RowMajor};
 use crate::islands::DisjointSets;
+use crate::tuning::PARALLEL_MIN_ENTRIES;
 use crate::types::Error;
+
+/// Runs `fill(first, chunk)` on `threads` contiguous chunks of `out` at once, the first
+/// chunk on the calling thread and the others on scoped threads.
+fn in_chunks(threads: usize, out: &mut [f64], fill: impl Fn(usize, &mut [f64]) + Sync) {
+    if threads <= 1 || out.len() < 2 {
+        fill(0, out);
+        return;
+    }
+    let len = out.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        let mut chunks = out.chunks_mut(len).enumerate();
+        let (_, head) = chunks.next().expect("out is not empty");
+        for (k, chunk) in chunks {
+            let fill = &fill;
+            scope.spawn(move || fill(k * len, chunk));
+        }
+        fill(0, head);
+    });
+}
 
 /// Largest diagonal block the preconditioner factorizes (a rigid body has 6 velocities; a
 /// body with a few extra coordinates still fits).
@@ -77,8 +97,11 @@ pub struct GramPcg {
     q: Vec<f64>,
     /// `D H^T p`, in the contact space.
     contact: Vec<f64>,
-    /// H by rows, for the product `H (D H^T p)`.
+    /// H and M by rows, for the products `M p + rho H (D H^T p)` (gathers).
     h_rows: RowMajor,
+    m_rows: RowMajor,
+    /// Threads the products run on (their results do not depend on it).
+    threads: usize,
     /// Conjugate-gradient iterations over every solve.
     iterations: usize,
     /// Numeric block factorizations so far.
@@ -120,6 +143,8 @@ impl GramPcg {
             q: vec![0.0; n],
             contact: vec![0.0; a.h.ncols()],
             h_rows: RowMajor::new(a.h),
+            m_rows: RowMajor::new(a.m),
+            threads: 1,
             iterations: 0,
             factorizations: 0,
         };
@@ -141,6 +166,7 @@ impl GramPcg {
     /// the next [`GramPcg::set_rho`] refactorizes the blocks.
     pub fn take_values(&mut self, Gram { m, h, active }: Gram) {
         self.h_rows.take_values(h);
+        self.m_rows.take_values(m);
         self.mass.fill(0.0);
         self.gram.fill(0.0);
         for j in 0..m.ncols() {
@@ -212,14 +238,32 @@ impl GramPcg {
         Ok(())
     }
 
-    /// `y = (M + rho H D H^T) x` at the rho of the last [`GramPcg::set_rho`].
-    pub fn apply(&mut self, Gram { m, h, active }: Gram, x: &[f64], y: &mut [f64]) {
-        h.mul_t_vec(1.0, x, 0.0, &mut self.contact);
-        for (c, a) in self.contact.iter_mut().zip(active) {
-            *c *= a;
-        }
-        m.mul_vec(1.0, x, 0.0, y);
-        self.h_rows.mul_vec(self.rho, &self.contact, 1.0, y);
+    /// Threads for the products of systems with at least [`PARALLEL_MIN_ENTRIES`] entries in
+    /// `M` and `H` (below, starting them costs more than they save).
+    pub fn set_threads(&mut self, threads: usize) {
+        self.threads = threads.max(1);
+    }
+
+    /// `y = (M + rho H D H^T) x` at the rho of the last [`GramPcg::set_rho`]: `D H^T x` by
+    /// columns of H, then each `y_i` from row `i` of M and of H, both gathers, so that each
+    /// entry is summed in the same order whatever the threads.
+    pub fn apply(&mut self, Gram { h, active, .. }: Gram, x: &[f64], y: &mut [f64]) {
+        let big = self.h_rows.entries() + self.m_rows.entries() >= PARALLEL_MIN_ENTRIES;
+        let threads = if big { self.threads } else { 1 };
+        in_chunks(threads, &mut self.contact, |first, chunk| {
+            for (k, c) in chunk.iter_mut().enumerate() {
+                let j = first + k;
+                let column: f64 = h.col(j).map(|(i, v)| v * x[i]).sum();
+                *c = active[j] * column;
+            }
+        });
+        let (m_rows, h_rows, rho, contact) = (&self.m_rows, &self.h_rows, self.rho, &self.contact);
+        in_chunks(threads, y, |first, chunk| {
+            for (k, yi) in chunk.iter_mut().enumerate() {
+                let i = first + k;
+                *yi = m_rows.row_dot(i, x) + rho * h_rows.row_dot(i, contact);
+            }
+        });
     }
 
     /// `z = P^-1 r`, block by block.

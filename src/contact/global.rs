@@ -166,27 +166,6 @@ impl GlobalSplitting {
         }
     }
 
-    /// When the iterative backend stops (docs/algorithms.md §14): once the residual
-    /// `||b - A v||` of its warm start has shrunk by [`PCG_REDUCTION`], so that the error of
-    /// each inexact step is a fraction of the step itself (which goes to zero as ADMM
-    /// converges: the errors stay summable, as inexact ADMM needs); or once it is below a
-    /// tenth of the last measured error in the units of the measure's equation term, which
-    /// that residual adds to: then it no longer matters for the tolerance. The error
-    /// measured at the end is of the inexact iterate, so it stays honest either way.
-    fn inexact_stop(&self, rhs_norm: f64) -> Option<PcgStop> {
-        let tol = if self.last_error.is_finite() {
-            PCG_ERROR_SHARE * self.last_error * self.measure.scales.equation
-        } else {
-            PCG_FIRST_RELATIVE * rhs_norm
-        };
-        Some(PcgStop {
-            tol,
-            reduction: PCG_REDUCTION,
-            floor: PCG_RELATIVE_FLOOR * rhs_norm,
-            max_iterations: PCG_MAX_ITERATIONS,
-        })
-    }
-
     /// Sets the De Saxce shift from a velocity (warm start).
     fn shift_from_velocity(&mut self, v: &[f64]) {
         self.work_m.copy_from_slice(&self.p.w);
@@ -247,6 +226,28 @@ fn system_matrix(p: &GlobalProblem, active: &[f64]) -> (ParamMatrix, Assembly, F
         (false, _) => FactorKind::Lu,
     };
     (matrix, assembly, kind)
+}
+
+/// When the iterative backend stops (docs/algorithms.md §14): once the residual
+/// `||b - A v||` of its warm start has shrunk by [`PCG_REDUCTION`], so that the error of
+/// each inexact step is a fraction of the step itself (which goes to zero as ADMM
+/// converges: the errors stay summable, as inexact ADMM needs); or once it is below a
+/// tenth of the last measured error (`equation_scale`: the measure's equation
+/// denominator), which that residual adds to: then it no longer matters for the
+/// tolerance. The error measured at the end is of the inexact iterate, so it stays honest
+/// either way.
+fn inexact_stop(last_error: f64, equation_scale: f64, rhs_norm: f64) -> PcgStop {
+    let tol = if last_error.is_finite() {
+        PCG_ERROR_SHARE * last_error * equation_scale
+    } else {
+        PCG_FIRST_RELATIVE * rhs_norm
+    };
+    PcgStop {
+        tol,
+        reduction: PCG_REDUCTION,
+        floor: PCG_RELATIVE_FLOOR * rhs_norm,
+        max_iterations: PCG_MAX_ITERATIONS,
+    }
 }
 
 /// The iterative backend's operator `M + rho H D H^T`.
@@ -322,17 +323,13 @@ impl Splitting for GlobalSplitting {
                 *t = -b;
             }
         }
-        let stop = match self.system {
-            VelocitySystem::Iterative(_) => self.inexact_stop(norm2(&self.rhs)),
-            VelocitySystem::Direct { .. } => None,
-        };
         let factor = match &mut self.system {
             VelocitySystem::Direct { factor, .. } => factor,
             VelocitySystem::Iterative(pcg) => {
                 // From the last velocity: a warm start that is close after a few iterations.
-                let a = gram(&self.p, &self.active);
-                let stop = stop.expect("made for the iterative backend");
-                pcg.solve(a, &self.rhs, &mut self.sol, stop);
+                let scale = self.measure.scales.equation;
+                let stop = inexact_stop(self.last_error, scale, norm2(&self.rhs));
+                pcg.solve(gram(&self.p, &self.active), &self.rhs, &mut self.sol, stop);
                 self.p.h.mul_t_vec(1.0, &self.sol, 0.0, ax);
                 return;
             }

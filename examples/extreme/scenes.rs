@@ -341,17 +341,21 @@ fn tripod() -> Scene {
     s
 }
 
-/// A sphere lattice `nx x ny x nz` (radius 0.5, masses between 0.5 and 1.5, small random
-/// velocities) in contact with its vertical and horizontal neighbours and the ground.
-pub fn pile(nx: usize, ny: usize, nz: usize) -> Scene {
-    let mut s = Scene::default();
-    let mut seed: u64 = 0x2545_F491_4F6C_DD1D;
-    let mut rand = move || {
+/// A deterministic uniform generator on [0, 1) (xorshift64 from `seed`).
+fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
         seed ^= seed << 13;
         seed ^= seed >> 7;
         seed ^= seed << 17;
         (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    }
+}
+
+/// A sphere lattice `nx x ny x nz` (radius 0.5, masses between 0.5 and 1.5, small random
+/// velocities) in contact with its vertical and horizontal neighbours and the ground.
+pub fn pile(nx: usize, ny: usize, nz: usize) -> Scene {
+    let mut s = Scene::default();
+    let mut rand = uniform(0x2545_F491_4F6C_DD1D);
     let id = |i: usize, j: usize, k: usize| (k * ny + j) * nx + i;
     for k in 0..nz {
         for j in 0..ny {
@@ -440,13 +444,7 @@ fn touching(c: [V3; 3], d: [f64; 3]) -> Option<V3> {
 /// contact but the ground's are left out, so the pile is one island. Deterministic.
 pub fn irregular_pile(nx: usize, ny: usize, nz: usize) -> Scene {
     let mut s = Scene::default();
-    let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut rand = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rand = uniform(0x9E37_79B9_7F4A_7C15);
     let mut radius: Vec<f64> = Vec::with_capacity(nx * ny * nz);
     // Spheres placed so far by unit column cell of the horizontal plane (cells 0..=nx, 0..=ny
     // hold every centre): a drop only looks at the 3 x 3 cells around it.

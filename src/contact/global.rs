@@ -12,8 +12,8 @@ use crate::admm::{EngineState, Splitting};
 use crate::certificate::run_off;
 use crate::cone::{get3, project_dual_cone, set3};
 use crate::csc::norm2;
-use crate::linsys::param_matrix::{gram_triplets, triplets, Assembly};
-use crate::linsys::{Factor, FactorKind, Gram, GramPcg, ParamMatrix, PcgStop};
+use crate::linsys::param_matrix::{triplets, Assembly};
+use crate::linsys::{Factor, FactorKind, Gram, GramPcg, GramProduct, ParamMatrix, PcgStop};
 use crate::measure::{global_error_with, Floors, MeasureWork};
 use crate::newton::{GlobalNewton, NewtonOutcome};
 use crate::problem::{GlobalProblem, Problem};
@@ -62,9 +62,13 @@ pub struct GlobalSplitting {
 
 /// The v-update system and its backend.
 enum VelocitySystem {
-    /// Factorized (dense or sparse): the assembled matrix, and where M, G and `H H^T` go in
-    /// it (new values without re-sorting).
-    Direct { factor: Factor, assembly: Assembly },
+    /// Factorized (dense or sparse): the assembled matrix, where M, G and `H H^T` go in
+    /// it (new values without re-sorting), and `H H^T` itself.
+    Direct {
+        factor: Factor,
+        assembly: Assembly,
+        gram: GramProduct,
+    },
     /// Matrix-free conjugate gradients on `M + rho H H^T` (symmetric M, no joints).
     Iterative(GramPcg),
 }
@@ -136,11 +140,14 @@ impl GlobalSplitting {
             .reassemble(&self.mass_assembly, mass_triplets(&self.p), []);
         self.mass.set_rho(0.0)?;
         match &mut self.system {
-            VelocitySystem::Direct { factor, assembly } => factor.reassemble(
+            VelocitySystem::Direct {
+                factor,
                 assembly,
-                base_triplets(&self.p),
-                gram_triplets(&self.p.h, &self.active, self.m_mirror.is_some()),
-            ),
+                gram,
+            } => {
+                gram.recompute(&self.p.h);
+                factor.reassemble(assembly, base_triplets(&self.p), gram.triplets())
+            }
             VelocitySystem::Iterative(pcg) => pcg.take_values(gram(&self.p, &self.active)),
         }
         self.reset_shift();
@@ -210,22 +217,22 @@ fn base_triplets(p: &GlobalProblem) -> impl Iterator<Item = (usize, usize, f64)>
 /// `M + rho H H^T`, or the joint system around it: `[[M + rho H H^T, G], [G^T, -delta I]]`.
 /// Cholesky / quasi-definite LDL^T on the upper triangle when M is symmetric (up to
 /// round-off), LU on the full pattern otherwise (some FEM files carry a non-symmetric M).
-fn system_matrix(p: &GlobalProblem, active: &[f64]) -> (ParamMatrix, Assembly, FactorKind) {
+fn system_matrix(
+    p: &GlobalProblem,
+    active: &[f64],
+) -> (ParamMatrix, Assembly, GramProduct, FactorKind) {
     let n = p.n();
     let np = p.n_joints();
     let symmetric = p.m.is_symmetric();
-    let (matrix, assembly) = ParamMatrix::from_triplets(
-        n + np,
-        base_triplets(p),
-        gram_triplets(&p.h, active, symmetric),
-        symmetric,
-    );
+    let gram = GramProduct::new(&p.h, active, symmetric);
+    let (matrix, assembly) =
+        ParamMatrix::from_triplets(n + np, base_triplets(p), gram.triplets(), symmetric);
     let kind = match (symmetric, np) {
         (true, 0) => FactorKind::Cholesky,
         (true, _) => FactorKind::QuasiDefinite { n_positive: n },
         (false, _) => FactorKind::Lu,
     };
-    (matrix, assembly, kind)
+    (matrix, assembly, gram, kind)
 }
 
 /// When the iterative backend stops (docs/algorithms.md §14): once the residual
@@ -274,12 +281,19 @@ fn velocity_system(
     if eligible && choice == LinearSolver::Iterative {
         return Ok((iterative(), FactorKind::Cholesky));
     }
-    let (matrix, assembly, kind) = system_matrix(p, active);
+    let (matrix, assembly, gram, kind) = system_matrix(p, active);
     let factor = Factor::new("M + rho H H^T", matrix, kind)?;
     if eligible && choice == LinearSolver::Auto && matrix_free_pays(p, &factor) {
         return Ok((iterative(), kind));
     }
-    Ok((VelocitySystem::Direct { factor, assembly }, kind))
+    Ok((
+        VelocitySystem::Direct {
+            factor,
+            assembly,
+            gram,
+        },
+        kind,
+    ))
 }
 
 /// The cost model of `Auto`: per v-update, two triangular solves read the factor twice;

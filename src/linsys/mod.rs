@@ -6,12 +6,14 @@
 //! ones (an island of a few contacts) are factorized densely.
 
 pub(crate) mod dense;
+mod gram_product;
 pub mod param_matrix;
 mod pcg;
 mod sparse_factor;
 
 use dense::DenseFactor;
 pub use dense::DENSE_MAX;
+pub use gram_product::GramProduct;
 pub use param_matrix::ParamMatrix;
 pub use pcg::{Gram, GramPcg, PcgStop};
 pub use sparse_factor::{FactorKind, SparseFactor};

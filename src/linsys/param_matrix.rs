@@ -32,9 +32,7 @@ pub const DROPPED: usize = usize::MAX;
 
 /// The entries ordered by column, then row, equal keys keeping their input order (so
 /// duplicates are summed in the same order as a stable sort would sum them): two stable
-/// counting passes, by row and then by column, in `O(entries + n)`. A comparison sort of
-/// the `H H^T` triplets was most of a new solver's cost on an engine's scene (130 000
-/// triplets for 300 contacts).
+/// counting passes, by row and then by column, in `O(entries + n)`.
 fn sorted_by_column<T: Copy>(
     all: Vec<(usize, usize, f64, f64, T)>,
     n: usize,
@@ -184,25 +182,6 @@ impl ParamMatrix {
 /// Triplets of a matrix (both triangles as stored).
 pub fn triplets(a: &CscMatrix) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
     (0..a.ncols()).flat_map(move |j| a.col(j).map(move |(i, v)| (i, j, v)))
-}
-
-/// Triplets of `H_a H_a^T` (`H` is `n x m`), accumulated column by column of `H`, over
-/// the columns `k` with `active[k] != 0`; with `upper_only`, the upper triangle only (a
-/// symmetric system stores no more, and half the triplets cost half the assembly).
-pub fn gram_triplets<'a>(
-    h: &'a CscMatrix,
-    active: &'a [f64],
-    upper_only: bool,
-) -> impl Iterator<Item = (usize, usize, f64)> + 'a {
-    (0..h.ncols())
-        .filter(|&k| active[k] != 0.0)
-        .flat_map(move |k| {
-            h.col(k).flat_map(move |(i, vi)| {
-                h.col(k)
-                    .filter(move |&(j, _)| !upper_only || i <= j)
-                    .map(move |(j, vj)| (i, j, vi * vj))
-            })
-        })
 }
 
 #[cfg(test)]

@@ -481,10 +481,11 @@ static void test_anderson_interval(void)
 static void test_trace_phase(void)
 {
     tu_rng g = tu_rng_new(99u);
-    /* a stack of 20 bodies, each on the one below (n = 60, 60 contact rows): above the
+    /* a stack of 40 bodies, each on the one below (n = 120, 120 contact rows): above the
        size (48) up to which an island starts with Newton on its dense form, so ADMM runs
-       first, then hands over */
-    tu_problem p = tu_gen_global(&g, 20, 20, 0.5, 1);
+       first, then hands over (at 20 bodies ADMM finishes sooner than a Newton phase is
+       predicted to, and keeps going) */
+    tu_problem p = tu_gen_global(&g, 40, 40, 0.5, 1);
     cadmm_problem *lib = tu_require_problem(&p);
     cadmm_settings *s = settings_tol(1e-10);
     cadmm_solver *sv = NULL;

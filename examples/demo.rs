@@ -319,7 +319,8 @@ fn main() -> ExitCode {
         } else {
             let problem = build_problem(&bodies, &contacts);
             let setup = Instant::now();
-            match &mut kept {
+            // The step's own setup: the values update, or the new solver.
+            let setup_seconds = match &mut kept {
                 // The per-step path: new values into the kept system, one refactorization.
                 Some((solver, last)) if last.same_pattern(&problem) => {
                     solver
@@ -333,22 +334,23 @@ fn main() -> ExitCode {
                         })
                         .expect("M is positive definite");
                     let update = setup.elapsed().as_secs_f64();
-                    // What a new solver for the same step would have cost.
+                    // What a new solver for the same step would have cost (not the step's).
                     let fresh = Instant::now();
                     let other = Solver::new(Problem::Global(problem.clone()), settings.clone());
                     let fresh = fresh.elapsed().as_secs_f64();
                     drop(other);
                     outcome.update_seconds.push((update, fresh));
                     *last = problem;
+                    update
                 }
                 // Contacts appeared or vanished: the pattern of H changed, a new solver.
                 _ => {
                     let solver = Solver::new(Problem::Global(problem.clone()), settings.clone())
                         .expect("M is positive definite");
                     kept = Some((solver, problem));
+                    setup.elapsed().as_secs_f64()
                 }
-            }
-            let setup_seconds = setup.elapsed().as_secs_f64();
+            };
             let (solver, check_problem) = kept.as_mut().expect("kept above");
             let check_problem = &*check_problem;
             let r0 = warm_impulses(&contacts, &previous);
@@ -491,6 +493,19 @@ fn summary(
     let max_contacts = logs.iter().map(|l| l.contacts).max().unwrap_or(0);
     let solve_total: f64 = logs.iter().map(|l| l.solve_ms).sum::<f64>() / 1e3;
     let solve_max = logs.iter().map(|l| l.solve_ms).fold(0.0, f64::max);
+    // Per-step percentiles over the steps that called the solver.
+    let mut step_ms: Vec<f64> = logs
+        .iter()
+        .filter(|l| l.contacts > 0)
+        .map(|l| l.solve_ms)
+        .collect();
+    step_ms.sort_by(f64::total_cmp);
+    let percentile = |q: f64| {
+        step_ms
+            .get(((step_ms.len() as f64 * q) as usize).min(step_ms.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(f64::NAN)
+    };
     let bricks = outcome.settled.len();
     let pyramid_shift = outcome
         .settled
@@ -520,7 +535,9 @@ fn summary(
     );
     println!("error: max {max_error:.2e} (stats), max {max_check:.2e} (measure::global_error)");
     println!(
-        "time: solver {solve_total:.2} s in all (max {solve_max:.1} ms per step), wall {:.2} s",
+        "time: solver {solve_total:.2} s in all; per step (setup and solve) median {:.2} ms, p90 {:.2} ms, max {solve_max:.1} ms; wall {:.2} s",
+        percentile(0.5),
+        percentile(0.9),
         outcome.wall_seconds
     );
     let median = |mut x: Vec<f64>| {

@@ -2,8 +2,8 @@
 
 use crate::admm::{EngineSettings, Handover, SUpdate, Variant};
 use crate::tuning::{
-    ERROR_CHECK_INTERVAL, FINISH_WITHIN, HANDOVER_ERROR, HANDOVER_STALL_CHECKS, RESIDUAL_EPS_ABS,
-    RESIDUAL_EPS_ABS_FROM, RHO_RANGE,
+    ERROR_CHECK_INTERVAL, HANDOVER_ERROR, HANDOVER_STALL_CHECKS, NEWTON_EXPECTED_STEPS,
+    NEWTON_STEP_ITERATIONS, RESIDUAL_EPS_ABS, RESIDUAL_EPS_ABS_FROM, RHO_RANGE,
 };
 use crate::types::Error;
 
@@ -252,7 +252,9 @@ impl Settings {
             handover: (resolved.newton == NewtonUse::Polish).then_some(Handover {
                 error_below: HANDOVER_ERROR,
                 stall_checks: HANDOVER_STALL_CHECKS,
-                finish_within: FINISH_WITHIN,
+                newton_steps: NEWTON_EXPECTED_STEPS,
+                newton_step_seconds: None,
+                newton_step_iterations: NEWTON_STEP_ITERATIONS,
             }),
         }
     }

@@ -30,11 +30,27 @@ pub const HANDOVER_ERROR: f64 = 1e-6;
 /// iterations each): ADMM has stalled, and Newton may still finish from there.
 pub const HANDOVER_STALL_CHECKS: usize = 20;
 
-/// No handover while ADMM, at the rate of its last error evaluations, would reach the
-/// tolerance within this many iterations: on easy files a Newton phase (a factorization
-/// and a few steps) costs more than that. (FCLib set at 1e-8, `auto` against ADMM alone:
-/// median time ratio 1.28 with no such rule, 1.06 with 200 iterations.)
-pub const FINISH_WITHIN: usize = 200;
+/// The handover's cost model (docs/algorithms.md §9.3): ADMM hands over only when a Newton
+/// phase of this many steps, each costing [`NEWTON_STEP_ITERATIONS`] ADMM iterations until
+/// one was measured on the problem, is predicted to cost less than ADMM's remaining
+/// iterations at its measured rate. Newton needs 1 to 5 steps from most handovers (FCLib
+/// Box_Stacks: 3; an engine's pile of 31 bricks: 1 in 72 of 179 phases, median 3).
+pub const NEWTON_EXPECTED_STEPS: f64 = 4.0;
+
+/// A Newton step's cost in ADMM iterations before one is measured: its factorization of
+/// the unreduced system against an iteration's triangular solves. Measured at handovers:
+/// 55 to 85 on Box_Stacks, 60 on a 2 845-contact sphere pile, 35 to 90 on an engine's pile
+/// of 31 bricks, 10 to 25 on Capsules. With 4 expected steps the first handover waits
+/// while ADMM is within 200 iterations of the tolerance, as the rule tuned before it did
+/// (FCLib set at 1e-8, `auto` against ADMM alone: median time ratio 1.28 without such a
+/// rule, 1.06 with 200 iterations).
+pub const NEWTON_STEP_ITERATIONS: f64 = 50.0;
+
+/// A Newton phase stops, as a failed one, once it has spent this many times what ADMM
+/// predicted it still needed at the handover: `auto` then costs at most about that much
+/// more than ADMM alone (an engine's pile of 31 bricks had phases of 20 to 98 steps,
+/// 0.05 to 0.35 s, where ADMM needed 10 ms).
+pub const NEWTON_BUDGET: f64 = 1.0;
 
 /// Newton steps allowed per Newton phase with ADMM to fall back on. Newton itself stops a
 /// phase that has not improved for 60 steps; on the Box_Stacks files it needs 80 to 110

@@ -79,6 +79,9 @@ pub struct EngineOutcome {
     pub trace: Vec<TracePoint>,
     /// The loop stopped to hand over (status `None`): see [`Handover`].
     pub handed_over: bool,
+    /// At a handover, the seconds the Newton phase may spend (infinite: no limit), see
+    /// [`Handover`].
+    pub newton_budget: f64,
 }
 
 /// External s update's first inner tolerance: loose, for a guessed shift (docs/algorithms.md §5).
@@ -103,6 +106,7 @@ pub fn run(
     sp.set_rho(state.rho)?;
     let mut out = EngineOutcome {
         error: f64::INFINITY,
+        newton_budget: f64::INFINITY,
         ..Default::default()
     };
     // Everything the loop works with is made here: the loop does not allocate.
@@ -287,9 +291,7 @@ struct StopTest<'a> {
 
 impl<'a> StopTest<'a> {
     fn new(set: &'a EngineSettings, start: Instant) -> Self {
-        let monitor = set
-            .handover
-            .map(|h| HandoverMonitor::new(h, set.tolerance, set.check_every));
+        let monitor = set.handover.map(|h| HandoverMonitor::new(h, set.tolerance));
         Self {
             set,
             start,
@@ -327,13 +329,14 @@ impl<'a> StopTest<'a> {
         }
         if check && out.error <= set.tolerance {
             out.status = Some(Status::Solved);
-        } else if check
-            && self
-                .monitor
-                .as_mut()
-                .is_some_and(|m| m.hand_over(out.error))
+        } else if let Some(left) = self
+            .monitor
+            .as_mut()
+            .filter(|_| check)
+            .and_then(|m| m.hand_over(out.error, k + 1).then(|| m.newton_budget()))
         {
             out.handed_over = true;
+            out.newton_budget = left;
         } else if self.start.elapsed().as_secs_f64() > set.time_limit {
             out.status = Some(Status::TimeLimit);
         }

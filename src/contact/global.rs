@@ -11,7 +11,7 @@ use super::{
 use crate::admm::{EngineState, Splitting};
 use crate::certificate::run_off;
 use crate::cone::{get3, project_dual_cone, set3};
-use crate::csc::norm2;
+use crate::csc::{norm2, RowMajor};
 use crate::linsys::param_matrix::{triplets, Assembly};
 use crate::linsys::{Factor, FactorKind, Gram, GramPcg, GramProduct, ParamMatrix, PcgStop};
 use crate::measure::{global_error_with, Floors, MeasureWork};
@@ -277,7 +277,8 @@ fn velocity_system(
 ) -> Result<(VelocitySystem, FactorKind), Error> {
     let iterative = || VelocitySystem::Iterative(GramPcg::new(gram(p, active)));
     // Checked before anything is assembled: the matrix-free backend never forms the matrix.
-    let eligible = p.n_joints() == 0 && p.m.is_symmetric();
+    let eligible =
+        p.n_joints() == 0 && p.m.is_symmetric() && RowMajor::fits(&p.m) && RowMajor::fits(&p.h);
     if eligible && choice == LinearSolver::Iterative {
         return Ok((iterative(), FactorKind::Cholesky));
     }

@@ -97,7 +97,9 @@ pub struct GramPcg {
     q: Vec<f64>,
     /// `D H^T p`, in the contact space.
     contact: Vec<f64>,
-    /// H and M by rows, for the products `M p + rho H (D H^T p)` (gathers).
+    /// H by columns and by rows, and M by rows, for the products `M p + rho H (D H^T p)`
+    /// (gathers).
+    h_cols: RowMajor,
     h_rows: RowMajor,
     m_rows: RowMajor,
     /// Threads the products run on (their results do not depend on it).
@@ -142,6 +144,7 @@ impl GramPcg {
             p: vec![0.0; n],
             q: vec![0.0; n],
             contact: vec![0.0; a.h.ncols()],
+            h_cols: RowMajor::columns(a.h),
             h_rows: RowMajor::new(a.h),
             m_rows: RowMajor::new(a.m),
             threads: 1,
@@ -165,6 +168,7 @@ impl GramPcg {
     /// Takes new values of M, H and the active rows on the same patterns (no allocation);
     /// the next [`GramPcg::set_rho`] refactorizes the blocks.
     pub fn take_values(&mut self, Gram { m, h, active }: Gram) {
+        self.h_cols.take_values(h);
         self.h_rows.take_values(h);
         self.m_rows.take_values(m);
         self.mass.fill(0.0);
@@ -247,14 +251,14 @@ impl GramPcg {
     /// `y = (M + rho H D H^T) x` at the rho of the last [`GramPcg::set_rho`]: `D H^T x` by
     /// columns of H, then each `y_i` from row `i` of M and of H, both gathers, so that each
     /// entry is summed in the same order whatever the threads.
-    pub fn apply(&mut self, Gram { h, active, .. }: Gram, x: &[f64], y: &mut [f64]) {
+    pub fn apply(&mut self, Gram { active, .. }: Gram, x: &[f64], y: &mut [f64]) {
         let big = self.h_rows.entries() + self.m_rows.entries() >= PARALLEL_MIN_ENTRIES;
         let threads = if big { self.threads } else { 1 };
+        let h_cols = &self.h_cols;
         in_chunks(threads, &mut self.contact, |first, chunk| {
             for (k, c) in chunk.iter_mut().enumerate() {
                 let j = first + k;
-                let column: f64 = h.col(j).map(|(i, v)| v * x[i]).sum();
-                *c = active[j] * column;
+                *c = active[j] * h_cols.row_dot(j, x);
             }
         });
         let (m_rows, h_rows, rho, contact) = (&self.m_rows, &self.h_rows, self.rho, &self.contact);

@@ -5,12 +5,9 @@
 use crate::admm::{self, EngineSettings, EngineState};
 use crate::contact::{contact_form, initial_rho, ContactForm};
 use crate::measure::Floors;
-use crate::newton::{FailReason, NewtonStatus};
 use crate::problem::{NewValues, Problem};
 use crate::settings::{NewtonUse, Resolved, Settings};
-use crate::tuning::{
-    DENSE_MAX, HANDOVER_RETRY_FACTOR, NEWTON_BUDGET, NEWTON_FIRST_STEPS, NEWTON_MAX_STEPS,
-};
+use crate::tuning::{DENSE_MAX, HANDOVER_RETRY_FACTOR, NEWTON_FIRST_STEPS, NEWTON_MAX_STEPS};
 use crate::types::Solution;
 use crate::types::{Error, Status};
 use crate::types::{Phase, Stats, TracePoint};
@@ -40,9 +37,9 @@ struct Run {
     newton_first: bool,
     /// The form's conjugate-gradient count when the solve started.
     linear_iterations: usize,
-    /// Seconds the next Newton phase may spend (infinite: no limit), set by ADMM's last
+    /// Steps the next Newton phase may take (`None`: no limit), set by ADMM's last
     /// handover.
-    newton_budget: f64,
+    newton_budget: Option<usize>,
 }
 
 /// Solves one coupled frictional contact problem, and its successors with the same pattern.
@@ -57,9 +54,6 @@ pub(crate) struct CoupledSolver {
     trace: Vec<TracePoint>,
     /// A small problem with the Newton phase on: each solve starts with Newton.
     newton_first: bool,
-    /// Seconds and steps of every Newton phase this solver ran: the measured cost of a
-    /// step, for the handover's cost model.
-    newton_spent: (f64, usize),
 }
 
 impl CoupledSolver {
@@ -111,7 +105,6 @@ impl CoupledSolver {
             stats,
             trace: Vec::new(),
             newton_first,
-            newton_spent: (0.0, 0),
         })
     }
 
@@ -220,7 +213,7 @@ impl CoupledSolver {
             error: f64::INFINITY,
             newton_first: self.newton_first,
             linear_iterations: self.form.linear_iterations(),
-            newton_budget: f64::INFINITY,
+            newton_budget: None,
         };
         // ADMM and Newton phases alternate until one meets the tolerance or a limit is hit;
         // the iteration limit counts the steps of both. A small problem starts with Newton.
@@ -281,9 +274,6 @@ impl CoupledSolver {
     /// Newton.
     fn admm_phase(&mut self, run: &mut Run) -> Result<(Option<Status>, bool), Error> {
         run.set.max_iterations = self.iterations_left(&run.stats);
-        if let (Some(h), (seconds, steps @ 1..)) = (run.set.handover.as_mut(), self.newton_spent) {
-            h.newton_step_seconds = Some(seconds / steps as f64);
-        }
         let out = admm::run(self.form.as_mut(), &mut self.state, &run.set, run.t0)?;
         let stats = &mut run.stats;
         stats.iterations += out.iterations;
@@ -320,23 +310,12 @@ impl CoupledSolver {
             _ => left.min(NEWTON_MAX_STEPS),
         };
         let tolerance = self.settings.tolerance;
-        // Newton may spend what ADMM predicted it still needed (docs/algorithms.md §9.3).
-        let started = Instant::now();
-        let budget = Duration::try_from_secs_f64(NEWTON_BUDGET * run.newton_budget)
-            .ok()
-            .and_then(|b| started.checked_add(b));
-        let deadline = match (run.deadline, budget) {
-            (Some(d), Some(b)) => Some(d.min(b)),
-            (d, b) => d.or(b),
-        };
+        // A polishing phase may take the steps ADMM's predicted remaining iterations pay
+        // for (docs/algorithms.md §9.3); past them it ends as a failed phase.
+        let steps = run.newton_budget.map_or(steps, |budget| steps.min(budget));
         let newton = self
             .form
-            .polish(&mut self.state, tolerance, steps, deadline)?;
-        let seconds = started.elapsed().as_secs_f64();
-        self.newton_spent.0 += seconds;
-        self.newton_spent.1 += newton.iterations;
-        let out_of_budget = newton.status == NewtonStatus::Failed(FailReason::Deadline)
-            && run.deadline.is_none_or(|d| Instant::now() < d);
+            .polish(&mut self.state, tolerance, steps, run.deadline)?;
         run.stats.iterations += newton.iterations;
         run.stats.newton_iterations += newton.iterations;
         run.stats.newton_factorizations += newton.factorizations;
@@ -352,8 +331,7 @@ impl CoupledSolver {
         self.trace_newton(run, handed);
         let status =
             newton.status_when_final(newton.converged() && handed <= tolerance, run.deadline);
-        let ends =
-            matches!(status, Status::Solved) || (status == Status::TimeLimit && !out_of_budget);
+        let ends = matches!(status, Status::Solved | Status::TimeLimit);
         if ends || self.resolved.newton == NewtonUse::Alone {
             // Newton alone has nothing to fall back on.
             return Ok(Some(status));

@@ -3,7 +3,8 @@
 use crate::admm::{EngineSettings, Handover, SUpdate, Variant};
 use crate::tuning::{
     ERROR_CHECK_INTERVAL, HANDOVER_ERROR, HANDOVER_STALL_CHECKS, NEWTON_EXPECTED_STEPS,
-    NEWTON_STEP_ITERATIONS, RESIDUAL_EPS_ABS, RESIDUAL_EPS_ABS_FROM, RHO_RANGE,
+    NEWTON_RESCUE_STEPS, NEWTON_STEP_ITERATIONS, RESIDUAL_EPS_ABS, RESIDUAL_EPS_ABS_FROM,
+    RHO_RANGE,
 };
 use crate::types::Error;
 
@@ -253,7 +254,7 @@ impl Settings {
                 error_below: HANDOVER_ERROR,
                 stall_checks: HANDOVER_STALL_CHECKS,
                 newton_steps: NEWTON_EXPECTED_STEPS,
-                newton_step_seconds: None,
+                rescue_steps: NEWTON_RESCUE_STEPS,
                 newton_step_iterations: NEWTON_STEP_ITERATIONS,
             }),
         }

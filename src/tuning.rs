@@ -31,24 +31,34 @@ pub const HANDOVER_ERROR: f64 = 1e-6;
 pub const HANDOVER_STALL_CHECKS: usize = 20;
 
 /// The handover's cost model (docs/algorithms.md §9.3): ADMM hands over only when a Newton
-/// phase of this many steps, each costing [`NEWTON_STEP_ITERATIONS`] ADMM iterations until
-/// one was measured on the problem, is predicted to cost less than ADMM's remaining
-/// iterations at its measured rate. Newton needs 1 to 5 steps from most handovers (FCLib
-/// Box_Stacks: 3; an engine's pile of 31 bricks: 1 in 72 of 179 phases, median 3).
+/// phase of this many steps, each costing [`NEWTON_STEP_ITERATIONS`] ADMM iterations, is
+/// predicted to cost less than ADMM's remaining iterations at its measured rate. Newton
+/// needs 1 to 5 steps from most handovers (FCLib Box_Stacks: 3; an engine's pile of 31
+/// bricks: 1 in 72 of 179 phases, median 3).
 pub const NEWTON_EXPECTED_STEPS: f64 = 4.0;
 
-/// A Newton step's cost in ADMM iterations before one is measured: its factorization of
-/// the unreduced system against an iteration's triangular solves. Measured at handovers:
-/// 55 to 85 on Box_Stacks, 60 on a 2 845-contact sphere pile, 35 to 90 on an engine's pile
-/// of 31 bricks, 10 to 25 on Capsules. With 4 expected steps the first handover waits
-/// while ADMM is within 200 iterations of the tolerance, as the rule tuned before it did
-/// (FCLib set at 1e-8, `auto` against ADMM alone: median time ratio 1.28 without such a
-/// rule, 1.06 with 200 iterations).
+/// ... and a phase from a stall above the handover error (a rescue, from farther away)
+/// this many: 6 to 197 steps over the 13 such phases of the FCLib set (median 57), 21 to
+/// 28 on a 2 845-contact sphere pile. With 30, a slow ADMM within 1 500 iterations of the
+/// tolerance keeps going (the pile: 28 Newton steps of 60 iterations' cost each, where
+/// ADMM needed about 1 300 iterations).
+pub const NEWTON_RESCUE_STEPS: f64 = 30.0;
+
+/// A Newton step's cost in ADMM iterations: its factorization of the unreduced system
+/// against an iteration's triangular solves. Measured at handovers: 55 to 85 on
+/// Box_Stacks, 60 on a 2 845-contact sphere pile, 35 to 90 on an engine's pile of 31
+/// bricks, 10 to 25 on Capsules. A constant, not the cost measured on the problem at hand:
+/// a decision taken on wall-clock times would make the same solve differ from run to run
+/// with the machine's load (two solves on eight threads did). With 4 expected steps the
+/// handover waits while ADMM is within 200 iterations of the tolerance, as the rule tuned
+/// before it did (FCLib set at 1e-8, `auto` against ADMM alone: median time ratio 1.28
+/// without such a rule, 1.06 with 200 iterations).
 pub const NEWTON_STEP_ITERATIONS: f64 = 50.0;
 
-/// A Newton phase stops, as a failed one, once it has spent this many times what ADMM
-/// predicted it still needed at the handover: `auto` then costs at most about that much
-/// more than ADMM alone (an engine's pile of 31 bricks had phases of 20 to 98 steps,
+/// A Newton phase after a handover below the handover error may take the steps that cost,
+/// at [`NEWTON_STEP_ITERATIONS`] each, this many times the iterations ADMM predicted it
+/// still needed; past them it ends as a failed phase. `auto` then costs at most about that
+/// much more than ADMM alone (an engine's pile of 31 bricks had phases of 20 to 98 steps,
 /// 0.05 to 0.35 s, where ADMM needed 10 ms).
 pub const NEWTON_BUDGET: f64 = 1.0;
 

@@ -9,6 +9,7 @@ use super::handover::{Handover, HandoverMonitor};
 use super::rho_rule::{IterationView, RhoAdapter};
 use super::{SUpdate, Splitting, Variant};
 use crate::csc::norm2;
+use crate::tuning::NEWTON_BUDGET;
 use crate::types::{Error, Status};
 use crate::types::{Phase, TracePoint};
 use std::time::Instant;
@@ -79,9 +80,9 @@ pub struct EngineOutcome {
     pub trace: Vec<TracePoint>,
     /// The loop stopped to hand over (status `None`): see [`Handover`].
     pub handed_over: bool,
-    /// At a handover, the seconds the Newton phase may spend (infinite: no limit), see
+    /// At a handover, the steps the Newton phase may take (`None`: no limit), see
     /// [`Handover`].
-    pub newton_budget: f64,
+    pub newton_budget: Option<usize>,
 }
 
 /// External s update's first inner tolerance: loose, for a guessed shift (docs/algorithms.md §5).
@@ -106,7 +107,6 @@ pub fn run(
     sp.set_rho(state.rho)?;
     let mut out = EngineOutcome {
         error: f64::INFINITY,
-        newton_budget: f64::INFINITY,
         ..Default::default()
     };
     // Everything the loop works with is made here: the loop does not allocate.
@@ -329,12 +329,10 @@ impl<'a> StopTest<'a> {
         }
         if check && out.error <= set.tolerance {
             out.status = Some(Status::Solved);
-        } else if let Some(left) = self
-            .monitor
-            .as_mut()
-            .filter(|_| check)
-            .and_then(|m| m.hand_over(out.error, k + 1).then(|| m.newton_budget()))
-        {
+        } else if let Some(left) = self.monitor.as_mut().filter(|_| check).and_then(|m| {
+            m.hand_over(out.error, k + 1)
+                .then(|| m.newton_budget(NEWTON_BUDGET))
+        }) {
             out.handed_over = true;
             out.newton_budget = left;
         } else if self.start.elapsed().as_secs_f64() > set.time_limit {

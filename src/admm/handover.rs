@@ -1,8 +1,8 @@
 //! When the ADMM loop hands its iterate over to a finishing phase (the Newton polish,
 //! docs/algorithms.md §9.3): the error measure is low enough, or the error stalls, and a
-//! Newton phase is predicted to cost less than ADMM still needs at its measured rate.
-
-use std::time::Instant;
+//! Newton phase is predicted to cost less than what ADMM still needs at its measured rate.
+//! Costs are counted in ADMM iterations, not seconds, so that the decision, and the solve,
+//! do not depend on the machine's load.
 
 /// A stall is an error not halved over the window: the hybrid rule of docs/algorithms.md §9.3.
 const STALL_RATIO: f64 = 0.5;
@@ -21,12 +21,12 @@ pub struct Handover {
     pub error_below: f64,
     /// Hand over when the error has not halved over this many evaluations (0: never).
     pub stall_checks: usize,
-    /// Newton steps a phase is expected to take.
+    /// Newton steps a phase is expected to take from below `error_below` (a polish).
     pub newton_steps: f64,
-    /// Cost of one Newton step in seconds, measured on this problem's earlier phases;
-    /// `None` before any: then `newton_step_iterations` ADMM iterations.
-    pub newton_step_seconds: Option<f64>,
-    /// The cost of a Newton step in ADMM iterations when none was measured.
+    /// Newton steps a phase is expected to take from a stall above `error_below` (a rescue,
+    /// from farther away).
+    pub rescue_steps: f64,
+    /// The cost of a Newton step, in ADMM iterations.
     pub newton_step_iterations: f64,
 }
 
@@ -34,8 +34,6 @@ pub struct Handover {
 pub(super) struct HandoverMonitor {
     rule: Handover,
     tolerance: f64,
-    /// When the loop started: ADMM's cost per iteration is measured from it.
-    start: Instant,
     /// Errors of the last `stall_checks` evaluations (a ring, `checks` modulo its length).
     recent: Vec<f64>,
     checks: usize,
@@ -43,27 +41,23 @@ pub(super) struct HandoverMonitor {
     /// ones (a ring, `checks` modulo its length), for the rate.
     first: (f64, usize),
     window: [(f64, usize); RATE_WINDOW],
-    /// ADMM's predicted iterations to the tolerance at the last evaluation, and its
-    /// measured cost of an iteration.
+    /// ADMM's predicted iterations to the tolerance at the last evaluation.
     admm_iterations_left: f64,
-    seconds_per_iteration: f64,
     /// The last evaluation was at or below `error_below`.
     polishing: bool,
 }
 
 impl HandoverMonitor {
-    /// A monitor for a loop that starts now and stops at `tolerance`.
+    /// A monitor for a loop that stops at `tolerance`.
     pub(super) fn new(rule: Handover, tolerance: f64) -> Self {
         Self {
             rule,
             tolerance,
-            start: Instant::now(),
             recent: vec![f64::INFINITY; rule.stall_checks],
             checks: 0,
             first: (f64::INFINITY, 0),
             window: [(f64::INFINITY, 0); RATE_WINDOW],
             admm_iterations_left: f64::INFINITY,
-            seconds_per_iteration: 0.0,
             polishing: false,
         }
     }
@@ -71,7 +65,6 @@ impl HandoverMonitor {
     /// Records the error measured after `iterations` iterations of this loop; true when
     /// the loop should hand over now.
     pub(super) fn hand_over(&mut self, error: f64, iterations: usize) -> bool {
-        self.seconds_per_iteration = self.start.elapsed().as_secs_f64() / iterations.max(1) as f64;
         self.admm_iterations_left = self.iterations_left(error, iterations);
         // The first evaluation gives no rate: ADMM may be about to finish.
         let rated = self.checks > 0;
@@ -80,34 +73,23 @@ impl HandoverMonitor {
         }
         self.window[self.checks % RATE_WINDOW] = (error, iterations);
         let stalled = self.stalled(error);
-        let newton_seconds = self.rule.newton_steps
-            * self
-                .rule
-                .newton_step_seconds
-                .unwrap_or(self.rule.newton_step_iterations * self.seconds_per_iteration);
         self.polishing = error <= self.rule.error_below;
-        rated && (self.polishing || stalled) && newton_seconds < self.admm_seconds_left()
+        let steps = match self.polishing {
+            true => self.rule.newton_steps,
+            false => self.rule.rescue_steps,
+        };
+        let newton = steps * self.rule.newton_step_iterations;
+        rated && (self.polishing || stalled) && newton < self.admm_iterations_left
     }
 
-    /// What the Newton phase after a handover may spend before it no longer pays: ADMM's
-    /// predicted seconds to the tolerance when it handed over below `error_below`. A
-    /// handover on a stall is a rescue, not a polish: no limit then (Newton took 175 steps
-    /// from a stalled 4e-4 on Box_Stacks-i1000-444-8, where ADMM's estimate, from a rate
-    /// near 1, said little).
-    pub(super) fn newton_budget(&self) -> f64 {
-        match self.polishing {
-            true => self.admm_seconds_left(),
-            false => f64::INFINITY,
-        }
-    }
-
-    /// ADMM's predicted seconds to the tolerance at the last evaluation (infinite when
-    /// its error was not falling).
-    fn admm_seconds_left(&self) -> f64 {
-        match self.admm_iterations_left {
-            0.0 => 0.0,
-            left => left * self.seconds_per_iteration,
-        }
+    /// How many steps the Newton phase after a handover may take before it no longer pays:
+    /// the steps that cost ADMM's predicted iterations to the tolerance when it handed over
+    /// below `error_below` (at least one). A handover on a stall is a rescue, not a polish:
+    /// no limit then (Newton took 175 steps from a stalled 4e-4 on Box_Stacks-i1000-444-8,
+    /// where ADMM's estimate, from a rate near 1, said little).
+    pub(super) fn newton_budget(&self, budget: f64) -> Option<usize> {
+        let steps = budget * self.admm_iterations_left / self.rule.newton_step_iterations;
+        (self.polishing && steps.is_finite()).then(|| (steps as usize).max(1))
     }
 
     /// Records `error` in the stall window (and counts the evaluation); true when it is
@@ -152,43 +134,45 @@ impl HandoverMonitor {
 mod tests {
     use super::*;
 
-    fn rule(newton_step_seconds: Option<f64>) -> Handover {
+    fn rule(newton_step_iterations: f64) -> Handover {
         Handover {
             error_below: 1e-6,
             stall_checks: 4,
             newton_steps: 4.0,
-            newton_step_seconds,
-            newton_step_iterations: 50.0,
+            rescue_steps: 30.0,
+            newton_step_iterations,
         }
     }
 
     /// Below `error_below`, the monitor hands over when ADMM's remaining iterations at the
-    /// measured rate cost more than the Newton phase, and not when they cost less.
+    /// measured rate cost more than the Newton phase, and not when they cost less; the
+    /// phase may take the steps those iterations pay for.
     #[test]
     fn hands_over_when_newton_is_cheaper() {
         // Error / 10 every 5 iterations: 1e-7 -> 1e-8 takes 5 more iterations, far
         // fewer than 4 steps x 50 iterations.
-        let mut m = HandoverMonitor::new(rule(None), 1e-8);
+        let mut m = HandoverMonitor::new(rule(50.0), 1e-8);
         assert!(!m.hand_over(1e-6, 5));
         assert!(!m.hand_over(1e-7, 10));
-        assert!(m.admm_seconds_left().is_finite());
-        assert_eq!(m.newton_budget(), m.admm_seconds_left());
-        // Error / 1.01 every 5 iterations: about 1 150 iterations to go.
-        let mut m = HandoverMonitor::new(rule(None), 1e-8);
+        assert_eq!(m.admm_iterations_left, 5.0);
+        // Error / 1.01 every 5 iterations: about 2 310 iterations to go, 46 steps' worth.
+        let mut m = HandoverMonitor::new(rule(50.0), 1e-8);
         assert!(!m.hand_over(1e-6, 5));
         assert!(m.hand_over(1e-6 / 1.01, 10));
-        // The same, with a measured Newton step far dearer than ADMM's remaining time.
-        let mut m = HandoverMonitor::new(rule(Some(1e3)), 1e-8);
+        assert_eq!(m.newton_budget(1.0), Some(46));
+        assert_eq!(m.newton_budget(2.0), Some(92));
+        // The same, with Newton steps of 1 000 iterations: ADMM is cheaper.
+        let mut m = HandoverMonitor::new(rule(1000.0), 1e-8);
         assert!(!m.hand_over(1e-6, 5));
         assert!(!m.hand_over(1e-6 / 1.01, 10));
     }
 
-    /// Above `error_below`, only a stall hands over. ADMM's remaining time comes from the
-    /// rate over the window, from the whole loop's when the window's error rose, and is
-    /// infinite when that rose too.
+    /// Above `error_below`, only a stall hands over, and its Newton phase has no budget.
+    /// ADMM's remaining iterations come from the rate over the window, from the whole
+    /// loop's when the window's error rose, and are infinite when that rose too.
     #[test]
     fn hands_over_on_a_stall() {
-        let mut m = HandoverMonitor::new(rule(None), 1e-8);
+        let mut m = HandoverMonitor::new(rule(50.0), 1e-8);
         let mut handed = Vec::new();
         for (k, e) in [1e-3, 0.9e-3, 0.8e-3, 0.85e-3, 0.9e-3, 0.95e-3]
             .iter()
@@ -197,12 +181,25 @@ mod tests {
             handed.push(m.hand_over(*e, 5 * (k + 1)));
         }
         assert_eq!(handed, [false, false, false, false, true, true]);
-        // 0.95e-3 after 30 iterations, from 1e-3 after 5: about 5 590 iterations to go.
+        // 0.95e-3 after 30 iterations, from 1e-3 after 5: about 5 590 iterations to go,
+        // more than the 30 x 50 a rescue is expected to cost.
         let left = m.admm_iterations_left;
         assert!((left / 5_590.0 - 1.0).abs() < 0.01, "{left}");
-        // A stall's Newton phase has no budget.
-        assert!(m.newton_budget().is_infinite());
+        assert_eq!(m.newton_budget(1.0), None);
+        // A stall from which ADMM still finishes within 1 500 iterations is left to ADMM:
+        // not halved over 4 evaluations, but at that window's rate (0.9e-3 after 10
+        // iterations, 0.6e-3 after 25) 1e-8 is about 430 iterations away.
+        // With Newton steps of 5 iterations the same stall hands over.
+        for (step, handed) in [(50.0, false), (5.0, true)] {
+            let mut m = HandoverMonitor::new(rule(step), 1e-8);
+            for (k, e) in [1e-3, 0.9e-3, 0.8e-3, 0.7e-3].iter().enumerate() {
+                assert!(!m.hand_over(*e, 5 * (k + 1)));
+            }
+            assert_eq!(m.hand_over(0.6e-3, 25), handed);
+            let left = m.admm_iterations_left;
+            assert!((left / 431.0 - 1.0).abs() < 0.01, "{left}");
+        }
         assert!(m.hand_over(1.1e-3, 35));
-        assert!(m.admm_seconds_left().is_infinite());
+        assert!(m.admm_iterations_left.is_infinite());
     }
 }

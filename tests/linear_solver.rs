@@ -148,3 +148,37 @@ fn threads_leave_the_iterative_iterates_bitwise_unchanged() {
         assert!(answer(threads) == one, "{threads} threads differ from 1");
     }
 }
+
+/// The time limit reaches into the conjugate gradients: with a limit already passed when
+/// the solve starts, each v-update stops after one conjugate-gradient iteration (where it
+/// would otherwise run to its tolerance) and the solve ends at its first check with the
+/// status `time_limit`, the error of the iterate it returns measured honestly.
+#[test]
+fn the_time_limit_stops_the_conjugate_gradients() {
+    let p = small_pile();
+    let (free, _) = solve(&p, LinearSolver::Iterative, 1e-8);
+    assert!(
+        free.linear_iterations > 2 * free.iterations,
+        "{} CG iterations in {} ADMM iterations: too few to show a cut",
+        free.linear_iterations,
+        free.iterations
+    );
+    let settings = Settings {
+        linear_solver: LinearSolver::Iterative,
+        time_limit: 1e-12,
+        ..Settings::default()
+    };
+    let mut solver = Solver::new(Problem::Global(p.clone()), settings).unwrap();
+    assert_eq!(solver.solve().unwrap(), Status::TimeLimit);
+    let stats = *solver.stats();
+    assert!(
+        stats.linear_iterations <= stats.iterations,
+        "{} CG iterations in {} ADMM iterations past the deadline",
+        stats.linear_iterations,
+        stats.iterations
+    );
+    let s = solver.solution();
+    let error = common::global_error_sparse(&p, &s.r, &s.v);
+    assert!(error > 1e-8, "a time-limited solve reported {error:e}");
+    assert!((stats.error - error).abs() <= 1e-6 * error);
+}

@@ -12,7 +12,7 @@ use crate::csc::norm2;
 use crate::tuning::NEWTON_BUDGET;
 use crate::types::{Error, Status};
 use crate::types::{Phase, TracePoint};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Settings the loop needs.
 #[derive(Debug, Clone)]
@@ -104,6 +104,11 @@ pub fn run(
     start: Instant,
 ) -> Result<EngineOutcome, Error> {
     let (rho_min, rho_max) = (state.rho / set.rho_range, state.rho * set.rho_range);
+    sp.set_deadline(
+        Duration::try_from_secs_f64(set.time_limit)
+            .ok()
+            .and_then(|limit| start.checked_add(limit)),
+    );
     sp.set_rho(state.rho)?;
     let mut out = EngineOutcome {
         error: f64::INFINITY,

@@ -29,6 +29,7 @@ pub use rho_rule::RhoRule;
 pub use variant::{Relaxation, Variant, VARIANT_NAMES};
 
 use crate::types::Error;
+use std::time::Instant;
 
 /// What a problem supplies to the engine.
 pub trait Splitting {
@@ -55,6 +56,9 @@ pub trait Splitting {
     fn save_iterate(&self, _into: &mut Vec<f64>) {}
     /// Restores what [`Splitting::save_iterate`] saved.
     fn restore_iterate(&mut self, _from: &[f64]) {}
+    /// The run's wall-clock limit, for work inside a step that can stop early (the
+    /// iterative backend's conjugate gradients); ignored by default.
+    fn set_deadline(&mut self, _deadline: Option<Instant>) {}
 }
 
 /// When the s parameter is updated.

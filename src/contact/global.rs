@@ -58,6 +58,8 @@ pub struct GlobalSplitting {
     last_error: f64,
     /// The Newton phase, built on first use and kept across updates.
     newton: Option<GlobalNewton>,
+    /// The running solve's wall-clock limit, which also stops a conjugate-gradient solve.
+    deadline: Option<Instant>,
 }
 
 /// The v-update system and its backend.
@@ -107,6 +109,7 @@ impl GlobalSplitting {
             measure,
             last_error: f64::INFINITY,
             newton: None,
+            deadline: None,
             p,
         })
     }
@@ -243,7 +246,12 @@ fn system_matrix(
 /// denominator), which that residual adds to: then it no longer matters for the
 /// tolerance. The error measured at the end is of the inexact iterate, so it stays honest
 /// either way.
-fn inexact_stop(last_error: f64, equation_scale: f64, rhs_norm: f64) -> PcgStop {
+fn inexact_stop(
+    last_error: f64,
+    equation_scale: f64,
+    rhs_norm: f64,
+    deadline: Option<Instant>,
+) -> PcgStop {
     let tol = if last_error.is_finite() {
         PCG_ERROR_SHARE * last_error * equation_scale
     } else {
@@ -254,6 +262,7 @@ fn inexact_stop(last_error: f64, equation_scale: f64, rhs_norm: f64) -> PcgStop 
         reduction: PCG_REDUCTION,
         floor: PCG_RELATIVE_FLOOR * rhs_norm,
         max_iterations: PCG_MAX_ITERATIONS,
+        deadline,
     }
 }
 
@@ -343,7 +352,7 @@ impl Splitting for GlobalSplitting {
             VelocitySystem::Iterative(pcg) => {
                 // From the last velocity: a warm start that is close after a few iterations.
                 let scale = self.measure.scales.equation;
-                let stop = inexact_stop(self.last_error, scale, norm2(&self.rhs));
+                let stop = inexact_stop(self.last_error, scale, norm2(&self.rhs), self.deadline);
                 pcg.solve(gram(&self.p, &self.active), &self.rhs, &mut self.sol, stop);
                 self.p.h.mul_t_vec(1.0, &self.sol, 0.0, ax);
                 return;
@@ -415,6 +424,10 @@ impl Splitting for GlobalSplitting {
         self.sol.copy_from_slice(sol);
         self.phi.copy_from_slice(phi);
         self.refresh_c();
+    }
+
+    fn set_deadline(&mut self, deadline: Option<Instant>) {
+        self.deadline = deadline;
     }
 
     fn error(&mut self, _ax: &[f64], _y: &[f64], zeta: &[f64], rho: f64) -> f64 {

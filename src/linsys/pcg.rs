@@ -13,6 +13,7 @@ use crate::csc::{dot, norm2, CscMatrix, RowMajor};
 use crate::islands::DisjointSets;
 use crate::tuning::PARALLEL_MIN_ENTRIES;
 use crate::types::Error;
+use std::time::Instant;
 
 /// Runs `fill(first, chunk)` on `threads` contiguous chunks of `out` at once, the first
 /// chunk on the calling thread and the others on scoped threads.
@@ -60,6 +61,9 @@ pub struct PcgStop {
     pub floor: f64,
     /// Iteration limit.
     pub max_iterations: usize,
+    /// Wall-clock limit: the solve stops there, inexact (a time limit the caller checks
+    /// again after the step, so that a long solve does not overrun it).
+    pub deadline: Option<Instant>,
 }
 
 /// How one solve ended.
@@ -324,7 +328,7 @@ impl GramPcg {
                 }
                 out.iterations += 1;
                 out.residual = norm2(&r);
-                if out.residual <= tol {
+                if out.residual <= tol || stop.deadline.is_some_and(|d| Instant::now() >= d) {
                     break;
                 }
                 self.precondition(&r, &mut z);
@@ -433,6 +437,7 @@ mod tests {
             reduction: 0.0,
             floor: 0.0,
             max_iterations: 50,
+            deadline: None,
         };
         let out = pcg.solve(gram, &b, &mut x, stop);
         assert!(out.converged, "{out:?}");
@@ -446,6 +451,19 @@ mod tests {
         // Warm started at the answer: no iteration.
         let again = pcg.solve(gram, &b, &mut x, PcgStop { tol: 1e-10, ..stop });
         assert_eq!(again.iterations, 0);
+        // A passed deadline stops the solve after one iteration, unconverged.
+        let mut x = vec![0.0; 5];
+        let past = Some(Instant::now());
+        let cut = pcg.solve(
+            gram,
+            &b,
+            &mut x,
+            PcgStop {
+                deadline: past,
+                ..stop
+            },
+        );
+        assert_eq!((cut.iterations, cut.converged), (1, false), "{cut:?}");
     }
 
     #[test]

@@ -143,14 +143,15 @@ impl CoupledSolver {
     /// [`CoupledSolver::update_values`].
     pub(crate) fn update(&mut self, problem: Problem) -> Result<(), Error> {
         self.form.update(problem)?;
-        self.form.set_rho(self.rho0)?;
+        self.form.ready_for(self.rho0)?;
         self.warm = false;
         Ok(())
     }
 
     /// Takes new values for the problem on the same sizes and sparsity patterns (the next
     /// time step of a scene), without building a problem: they are scattered into the kept
-    /// system matrix through maps built once, then one numeric refactorization; no sorting,
+    /// system matrix through maps built once, then one numeric refactorization (deferred to
+    /// the solve's first step where it cannot fail once M passed its check); no sorting,
     /// no allocation (except when a symmetric matrix stops being symmetric, which rebuilds
     /// the system for LU). Every value is checked before any is taken; M is refactorized on
     /// its own to check it is positive definite, and after a failed factorization the
@@ -158,7 +159,7 @@ impl CoupledSolver {
     /// cold unless [`CoupledSolver::warm_start`] is called after this.
     pub(crate) fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
         self.form.update_values(values)?;
-        self.form.set_rho(self.rho0)?;
+        self.form.ready_for(self.rho0)?;
         self.warm = false;
         Ok(())
     }

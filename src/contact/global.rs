@@ -60,6 +60,10 @@ pub struct GlobalSplitting {
     newton: Option<GlobalNewton>,
     /// The running solve's wall-clock limit, which also stops a conjugate-gradient solve.
     deadline: Option<Instant>,
+    /// New values not yet in the v-update system: the next `set_rho` takes them (through
+    /// the assembly maps, no sorting), so that a solve its warm start already ends (an
+    /// engine's resting scene) assembles and factorizes nothing.
+    stale: bool,
 }
 
 /// The v-update system and its backend.
@@ -110,6 +114,7 @@ impl GlobalSplitting {
             last_error: f64::INFINITY,
             newton: None,
             deadline: None,
+            stale: false,
             p,
         })
     }
@@ -122,9 +127,9 @@ impl GlobalSplitting {
         }
     }
 
-    /// Makes the values now in `self.p` the system's (same patterns): scatters them through
-    /// the assembly map, restarts the shift and rescales the Newton phase; the caller sets
-    /// rho, which refactorizes. No sorting, no allocation. M is refactorized on its own
+    /// Makes the values now in `self.p` the problem's (same patterns): refactorizes M,
+    /// restarts the shift and rescales the Newton phase; the v-update system takes them at
+    /// the next [`Splitting::set_rho`] (see `stale`). No sorting, no allocation. M is refactorized on its own
     /// (its symmetric part, much sparser than the system) because the system can be
     /// positive definite while M is not. When M stopped being symmetric, the Cholesky
     /// system gives way to a new LU one.
@@ -142,17 +147,7 @@ impl GlobalSplitting {
         self.mass
             .reassemble(&self.mass_assembly, mass_triplets(&self.p), []);
         self.mass.set_rho(0.0)?;
-        match &mut self.system {
-            VelocitySystem::Direct {
-                factor,
-                assembly,
-                gram,
-            } => {
-                gram.recompute(&self.p.h);
-                factor.reassemble(assembly, base_triplets(&self.p), gram.triplets())
-            }
-            VelocitySystem::Iterative(pcg) => pcg.take_values(gram(&self.p, &self.active)),
-        }
+        self.stale = true;
         self.reset_shift();
         if let Some(newton) = &mut self.newton {
             newton.take_values(&self.p);
@@ -329,6 +324,19 @@ impl Splitting for GlobalSplitting {
     }
 
     fn set_rho(&mut self, rho: f64) -> Result<(), Error> {
+        if std::mem::take(&mut self.stale) {
+            match &mut self.system {
+                VelocitySystem::Direct {
+                    factor,
+                    assembly,
+                    gram,
+                } => {
+                    gram.recompute(&self.p.h);
+                    factor.reassemble(assembly, base_triplets(&self.p), gram.triplets())
+                }
+                VelocitySystem::Iterative(pcg) => pcg.take_values(gram(&self.p, &self.active)),
+            }
+        }
         match &mut self.system {
             VelocitySystem::Direct { factor, .. } => factor.set_rho(rho),
             VelocitySystem::Iterative(pcg) => pcg.set_rho(rho),
@@ -463,6 +471,16 @@ impl ContactForm for GlobalSplitting {
     fn update_values(&mut self, v: &NewValues) -> Result<(), Error> {
         self.p.set_values(v)?;
         self.take_values()
+    }
+
+    fn ready_for(&mut self, rho: f64) -> Result<(), Error> {
+        // M + rho H H^T is positive definite once M is, which `take_values` checked: the
+        // factorization can wait for the solve. With joints (quasi-definite) or an LU it
+        // can fail on its own, and the update reports that.
+        match self.p.joints.is_none() && self.m_mirror.is_some() {
+            true => Ok(()),
+            false => self.set_rho(rho),
+        }
     }
 
     fn n_velocities(&self) -> usize {

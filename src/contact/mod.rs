@@ -28,8 +28,14 @@ pub(crate) trait ContactForm: Splitting + Send {
     /// a problem of the other form or other sizes is an error.
     fn update(&mut self, p: Problem) -> Result<(), Error>;
     /// Takes new values in place (same patterns): scattered into the kept system matrix,
-    /// no sorting, no allocation; the caller sets rho, which refactorizes.
+    /// no sorting, no allocation; the caller then calls [`ContactForm::ready_for`].
     fn update_values(&mut self, v: &NewValues) -> Result<(), Error>;
+    /// After new values: refactorizes for `rho` where the factorization can fail and the
+    /// update must say so; a form may defer what cannot fail to the solve's first
+    /// [`Splitting::set_rho`].
+    fn ready_for(&mut self, rho: f64) -> Result<(), Error> {
+        self.set_rho(rho)
+    }
     /// Length of `v` (0 for the local form).
     fn n_velocities(&self) -> usize;
     /// Cold start: zero iterate, initial De Saxce shift.

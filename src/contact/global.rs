@@ -62,7 +62,8 @@ pub struct GlobalSplitting {
     deadline: Option<Instant>,
     /// New values not yet in the v-update system: the next `set_rho` takes them (through
     /// the assembly maps, no sorting), so that a solve its warm start already ends (an
-    /// engine's resting scene) assembles and factorizes nothing.
+    /// engine's resting scene), or that a first Newton phase ends, assembles and factorizes
+    /// nothing.
     stale: bool,
 }
 
@@ -474,10 +475,12 @@ impl ContactForm for GlobalSplitting {
     }
 
     fn ready_for(&mut self, rho: f64) -> Result<(), Error> {
-        // M + rho H H^T is positive definite once M is, which `take_values` checked: the
-        // factorization can wait for the solve. With joints (quasi-definite) or an LU it
-        // can fail on its own, and the update reports that.
-        match self.p.joints.is_none() && self.m_mirror.is_some() {
+        // M + rho H H^T is positive definite once M is, which `take_values` checked, and
+        // with joints the system [[M + rho H H^T, G], [G^T, -delta I]] is then
+        // quasi-definite, which has an LDL^T in any order: the factorization can wait for
+        // the solve. An LU (a non-symmetric M) can meet a singular matrix, and the update
+        // reports that.
+        match self.m_mirror.is_some() {
             true => Ok(()),
             false => self.set_rho(rho),
         }

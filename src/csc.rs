@@ -380,30 +380,13 @@ impl CscMatrix {
 
     /// Transpose.
     pub fn transpose(&self) -> Self {
-        let mut count = vec![0usize; self.nrows + 1];
-        for &i in &self.rowind {
-            count[i + 1] += 1;
-        }
-        for i in 0..self.nrows {
-            count[i + 1] += count[i];
-        }
-        let colptr = count.clone();
-        let mut next = count;
-        let mut rowind = vec![0; self.nnz()];
-        let mut values = vec![0.0; self.nnz()];
-        for j in 0..self.ncols {
-            for (i, v) in self.col(j) {
-                rowind[next[i]] = j;
-                values[next[i]] = v;
-                next[i] += 1;
-            }
-        }
+        let (colptr, entries) = entries_by_row(self, |_| true);
         Self {
             nrows: self.ncols,
             ncols: self.nrows,
             colptr,
-            rowind,
-            values,
+            rowind: entries.iter().map(|&(j, _)| j).collect(),
+            values: entries.iter().map(|&(_, k)| self.values[k]).collect(),
             input_order: None,
         }
     }
@@ -495,28 +478,11 @@ pub(crate) struct RowMajor {
 impl RowMajor {
     /// The rows of `a`.
     pub fn new(a: &CscMatrix) -> Self {
-        let mut start = vec![0usize; a.nrows + 1];
-        for &i in &a.rowind {
-            start[i + 1] += 1;
-        }
-        for i in 0..a.nrows {
-            start[i + 1] += start[i];
-        }
-        let mut next = start.clone();
-        let mut col = vec![0; a.nnz()];
-        let mut source = vec![0; a.nnz()];
-        for j in 0..a.ncols {
-            for k in a.colptr[j]..a.colptr[j + 1] {
-                let at = &mut next[a.rowind[k]];
-                col[*at] = index32(j);
-                source[*at] = k;
-                *at += 1;
-            }
-        }
+        let (start, entries) = entries_by_row(a, |_| true);
         let mut rows = Self {
             start,
-            col,
-            source,
+            col: entries.iter().map(|&(j, _)| index32(j)).collect(),
+            source: entries.iter().map(|&(_, k)| k).collect(),
             values: vec![0.0; a.nnz()],
         };
         rows.take_values(a);
@@ -559,6 +525,35 @@ impl RowMajor {
             .map(|(v, &j)| v * x[j as usize])
             .sum()
     }
+}
+
+/// The entries of `a` row by row, over the columns `keep` accepts, each row by increasing
+/// column (a counting sort): row `i`'s entries are `start[i]..start[i + 1]` of the list,
+/// each as (column, position in `a`'s values).
+pub(crate) fn entries_by_row(
+    a: &CscMatrix,
+    keep: impl Fn(usize) -> bool,
+) -> (Vec<usize>, Vec<(usize, usize)>) {
+    let kept = || (0..a.ncols).filter(|&j| keep(j));
+    let mut start = vec![0usize; a.nrows + 1];
+    for j in kept() {
+        for &i in &a.rowind[a.colptr[j]..a.colptr[j + 1]] {
+            start[i + 1] += 1;
+        }
+    }
+    for i in 0..a.nrows {
+        start[i + 1] += start[i];
+    }
+    let mut next = start.clone();
+    let mut entries = vec![(0, 0); start[a.nrows]];
+    for j in kept() {
+        for k in a.colptr[j]..a.colptr[j + 1] {
+            let at = &mut next[a.rowind[k]];
+            entries[*at] = (j, k);
+            *at += 1;
+        }
+    }
+    (start, entries)
 }
 
 /// An index in the 32-bit storage of [`RowMajor`] (checked by [`RowMajor::fits`]).

@@ -7,7 +7,7 @@
 //! from 70 000 pairs), so the system is assembled from the product, not from the pairs:
 //! no sort of the pairs, and a rebuild costs the multiply-adds alone.
 
-use crate::csc::CscMatrix;
+use crate::csc::{entries_by_row, CscMatrix};
 
 /// The pattern and values of `sum_{k active} H(:, k) H(:, k)^T` (the upper triangle only
 /// when asked), compressed by columns with sorted rows.
@@ -29,7 +29,7 @@ impl GramProduct {
     /// The product for `h` (`n x m`) over the columns `k` with `active[k] != 0`.
     pub fn new(h: &CscMatrix, active: &[f64], upper_only: bool) -> Self {
         let n = h.nrows();
-        let (row_start, row_entries) = active_rows_of(h, active);
+        let (row_start, row_entries) = entries_by_row(h, |k| active[k] != 0.0);
         // Pattern: column j holds the rows i (i <= j with upper_only) of every active
         // column k that row j touches.
         let mut seen = vec![usize::MAX; n];
@@ -90,32 +90,6 @@ impl GramProduct {
             (self.colptr[j]..self.colptr[j + 1]).map(move |q| (self.rowind[q], j, self.values[q]))
         })
     }
-}
-
-/// The rows of `h` over its active columns, by increasing column: (start of each row,
-/// entries as (column, position in `h`'s values)).
-fn active_rows_of(h: &CscMatrix, active: &[f64]) -> (Vec<usize>, Vec<(usize, usize)>) {
-    let n = h.nrows();
-    let live = |k: usize| active[k] != 0.0;
-    let mut start = vec![0usize; n + 1];
-    for k in (0..h.ncols()).filter(|&k| live(k)) {
-        for &i in &h.rowind()[h.colptr()[k]..h.colptr()[k + 1]] {
-            start[i + 1] += 1;
-        }
-    }
-    for i in 0..n {
-        start[i + 1] += start[i];
-    }
-    let mut next = start.clone();
-    let mut entries = vec![(0, 0); start[n]];
-    for k in (0..h.ncols()).filter(|&k| live(k)) {
-        for at in h.colptr()[k]..h.colptr()[k + 1] {
-            let slot = &mut next[h.rowind()[at]];
-            entries[*slot] = (k, at);
-            *slot += 1;
-        }
-    }
-    (start, entries)
 }
 
 #[cfg(test)]

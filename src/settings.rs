@@ -2,9 +2,9 @@
 
 use crate::admm::{EngineSettings, Handover, SUpdate, Variant};
 use crate::tuning::{
-    ERROR_CHECK_INTERVAL, HANDOVER_ERROR, HANDOVER_STALL_CHECKS, NEWTON_EXPECTED_STEPS,
-    NEWTON_RESCUE_STEPS, NEWTON_STEP_ITERATIONS, RESIDUAL_EPS_ABS, RESIDUAL_EPS_ABS_FROM,
-    RHO_RANGE,
+    ERROR_CHECK_INTERVAL, HANDOVER_ERROR, HANDOVER_STALL_CHECKS, NEWTON_BUDGET,
+    NEWTON_EXPECTED_STEPS, NEWTON_RESCUE_STEPS, NEWTON_STEP_ITERATIONS, RESIDUAL_EPS_ABS,
+    RESIDUAL_EPS_ABS_FROM, RHO_RANGE,
 };
 use crate::types::Error;
 
@@ -256,6 +256,7 @@ impl Settings {
                 newton_steps: NEWTON_EXPECTED_STEPS,
                 rescue_steps: NEWTON_RESCUE_STEPS,
                 newton_step_iterations: NEWTON_STEP_ITERATIONS,
+                budget: NEWTON_BUDGET,
             }),
         }
     }

@@ -9,7 +9,6 @@ use super::handover::{Handover, HandoverMonitor};
 use super::rho_rule::{IterationView, RhoAdapter};
 use super::{SUpdate, Splitting, Variant};
 use crate::csc::norm2;
-use crate::tuning::NEWTON_BUDGET;
 use crate::types::{Error, Status};
 use crate::types::{Phase, TracePoint};
 use std::time::{Duration, Instant};
@@ -334,10 +333,12 @@ impl<'a> StopTest<'a> {
         }
         if check && out.error <= set.tolerance {
             out.status = Some(Status::Solved);
-        } else if let Some(left) = self.monitor.as_mut().filter(|_| check).and_then(|m| {
-            m.hand_over(out.error, k + 1)
-                .then(|| m.newton_budget(NEWTON_BUDGET))
-        }) {
+        } else if let Some(left) = self
+            .monitor
+            .as_mut()
+            .filter(|_| check)
+            .and_then(|m| m.hand_over(out.error, k + 1).then(|| m.newton_budget()))
+        {
             out.handed_over = true;
             out.newton_budget = left;
         } else if self.start.elapsed().as_secs_f64() > set.time_limit {

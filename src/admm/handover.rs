@@ -28,6 +28,9 @@ pub struct Handover {
     pub rescue_steps: f64,
     /// The cost of a Newton step, in ADMM iterations.
     pub newton_step_iterations: f64,
+    /// A polishing phase may take the steps that cost this many times ADMM's predicted
+    /// remaining iterations.
+    pub budget: f64,
 }
 
 /// Watches the error measure at the loop's evaluations and says when to hand over.
@@ -87,8 +90,8 @@ impl HandoverMonitor {
     /// below `error_below` (at least one). A handover on a stall is a rescue, not a polish:
     /// no limit then (Newton took 175 steps from a stalled 4e-4 on Box_Stacks-i1000-444-8,
     /// where ADMM's estimate, from a rate near 1, said little).
-    pub(super) fn newton_budget(&self, budget: f64) -> Option<usize> {
-        let steps = budget * self.admm_iterations_left / self.rule.newton_step_iterations;
+    pub(super) fn newton_budget(&self) -> Option<usize> {
+        let steps = self.rule.budget * self.admm_iterations_left / self.rule.newton_step_iterations;
         (self.polishing && steps.is_finite()).then(|| (steps as usize).max(1))
     }
 
@@ -141,6 +144,7 @@ mod tests {
             newton_steps: 4.0,
             rescue_steps: 30.0,
             newton_step_iterations,
+            budget: 1.0,
         }
     }
 
@@ -159,8 +163,9 @@ mod tests {
         let mut m = HandoverMonitor::new(rule(50.0), 1e-8);
         assert!(!m.hand_over(1e-6, 5));
         assert!(m.hand_over(1e-6 / 1.01, 10));
-        assert_eq!(m.newton_budget(1.0), Some(46));
-        assert_eq!(m.newton_budget(2.0), Some(92));
+        assert_eq!(m.newton_budget(), Some(46));
+        m.rule.budget = 2.0;
+        assert_eq!(m.newton_budget(), Some(92));
         // The same, with Newton steps of 1 000 iterations: ADMM is cheaper.
         let mut m = HandoverMonitor::new(rule(1000.0), 1e-8);
         assert!(!m.hand_over(1e-6, 5));
@@ -185,7 +190,7 @@ mod tests {
         // more than the 30 x 50 a rescue is expected to cost.
         let left = m.admm_iterations_left;
         assert!((left / 5_590.0 - 1.0).abs() < 0.01, "{left}");
-        assert_eq!(m.newton_budget(1.0), None);
+        assert_eq!(m.newton_budget(), None);
         // A stall from which ADMM still finishes within 1 500 iterations is left to ADMM:
         // not halved over 4 evaluations, but at that window's rate (0.9e-3 after 10
         // iterations, 0.6e-3 after 25) 1e-8 is about 430 iterations away.

@@ -130,9 +130,9 @@ impl GlobalSplitting {
 
     /// Makes the values now in `self.p` the problem's (same patterns): refactorizes M,
     /// restarts the shift and rescales the Newton phase; the v-update system takes them at
-    /// the next [`Splitting::set_rho`] (see `stale`). No sorting, no allocation. M is refactorized on its own
-    /// (its symmetric part, much sparser than the system) because the system can be
-    /// positive definite while M is not. When M stopped being symmetric, the Cholesky
+    /// the next [`Splitting::set_rho`] (see `stale`). No sorting, no allocation. M is
+    /// refactorized on its own (its symmetric part, much sparser than the system) because
+    /// the system can be positive definite while M is not. When M stopped being symmetric, the Cholesky
     /// system gives way to a new LU one.
     fn take_values(&mut self) -> Result<(), Error> {
         let asymmetric = self

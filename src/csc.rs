@@ -451,12 +451,29 @@ pub const SYMMETRY_TOL: f64 = 1e-12;
 
 /// Euclidean norm.
 pub fn norm2(x: &[f64]) -> f64 {
-    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+    dot(x, x).sqrt()
 }
 
-/// Dot product.
+/// Dot product, summed in eight lanes: a single running sum waits on each addition (the
+/// compiler may not reorder floating-point sums), eight independent ones vectorize. The
+/// order is fixed, so the result is the same on every run.
 pub fn dot(x: &[f64], y: &[f64]) -> f64 {
-    x.iter().zip(y).map(|(a, b)| a * b).sum()
+    debug_assert_eq!(x.len(), y.len());
+    const LANES: usize = 8;
+    let (xc, yc) = (x.chunks_exact(LANES), y.chunks_exact(LANES));
+    let tail: f64 = xc
+        .remainder()
+        .iter()
+        .zip(yc.remainder())
+        .map(|(a, b)| a * b)
+        .sum();
+    let mut acc = [0.0; LANES];
+    for (a, b) in xc.zip(yc) {
+        for k in 0..LANES {
+            acc[k] += a[k] * b[k];
+        }
+    }
+    acc.iter().sum::<f64>() + tail
 }
 
 /// A matrix stored by rows beside its compressed-column original: `y = A x` then reads
@@ -516,15 +533,40 @@ impl RowMajor {
         self.values.len()
     }
 
+    /// `y = A x + beta y`, one row at a time.
+    pub fn mul_vec(&self, x: &[f64], beta: f64, y: &mut [f64]) {
+        debug_assert_eq!(y.len() + 1, self.start.len());
+        for (i, yi) in y.iter_mut().enumerate() {
+            let base = if beta == 0.0 { 0.0 } else { beta * *yi };
+            *yi = base + self.row_dot(i, x);
+        }
+    }
+
     /// Row `i` of the matrix times `x`.
     pub fn row_dot(&self, i: usize, x: &[f64]) -> f64 {
         let r = self.start[i]..self.start[i + 1];
-        self.values[r.clone()]
-            .iter()
-            .zip(&self.col[r])
-            .map(|(v, &j)| v * x[j as usize])
-            .sum()
+        gather_dot(&self.values[r.clone()], &self.col[r], x)
     }
+}
+
+/// `sum_k values[k] x[index[k]]` in four running sums: one sum would wait on each
+/// addition (rows of a few dozen entries are then latency-bound); the order is fixed.
+fn gather_dot(values: &[f64], index: &[u32], x: &[f64]) -> f64 {
+    const LANES: usize = 4;
+    let (vc, ic) = (values.chunks_exact(LANES), index.chunks_exact(LANES));
+    let tail: f64 = vc
+        .remainder()
+        .iter()
+        .zip(ic.remainder())
+        .map(|(v, &j)| v * x[j as usize])
+        .sum();
+    let mut acc = [0.0; LANES];
+    for (v, j) in vc.zip(ic) {
+        for k in 0..LANES {
+            acc[k] += v[k] * x[j[k] as usize];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 /// The entries of `a` row by row, over the columns `keep` accepts, each row by increasing

@@ -5,6 +5,8 @@
 //! least-squares problem is solved through its Tikhonov-regularized normal equations, whose
 //! Gram matrix is updated one column at a time. Nothing is allocated after construction.
 
+use crate::csc::dot;
+
 /// Anderson acceleration state for vectors of a fixed dimension.
 pub struct Anderson {
     memory: usize,
@@ -100,7 +102,7 @@ impl Anderson {
         for a in 0..k {
             let ca = (self.head + a) % m;
             let dfa = &self.df[ca * self.dim..(ca + 1) * self.dim];
-            self.rhs[a] = dfa.iter().zip(&self.f_prev).map(|(p, q)| p * q).sum();
+            self.rhs[a] = dot(dfa, &self.f_prev);
             for b in 0..k {
                 let cb = (self.head + b) % m;
                 self.sys[a * k + b] = self.gram[ca * m + cb];
@@ -139,11 +141,7 @@ impl Anderson {
 }
 
 fn dot_cols(buf: &[f64], dim: usize, a: usize, b: usize) -> f64 {
-    buf[a * dim..(a + 1) * dim]
-        .iter()
-        .zip(&buf[b * dim..(b + 1) * dim])
-        .map(|(p, q)| p * q)
-        .sum()
+    dot(&buf[a * dim..(a + 1) * dim], &buf[b * dim..(b + 1) * dim])
 }
 
 /// Solves the `k x k` row-major system in place by Gaussian elimination with partial

@@ -11,7 +11,7 @@ use super::{
 use crate::admm::{EngineState, Splitting};
 use crate::certificate::run_off;
 use crate::cone::{get3, project_dual_cone, set3};
-use crate::csc::{norm2, RowMajor};
+use crate::csc::{norm2, CscMatrix, RowMajor};
 use crate::linsys::param_matrix::{triplets, Assembly};
 use crate::linsys::{Factor, FactorKind, Gram, GramPcg, GramProduct, ParamMatrix, PcgStop};
 use crate::measure::{global_error_with, Floors, MeasureWork};
@@ -75,6 +75,9 @@ enum VelocitySystem {
         factor: Factor,
         assembly: Assembly,
         gram: GramProduct,
+        /// H by rows, for the products `H x` of every iteration (a gather, faster than
+        /// the column product's scatter); `None` past 32-bit indices.
+        h_rows: Option<RowMajor>,
     },
     /// Matrix-free conjugate gradients on `M + rho H H^T` (symmetric M, no joints).
     Iterative(GramPcg),
@@ -297,9 +300,22 @@ fn velocity_system(
             factor,
             assembly,
             gram,
+            h_rows: RowMajor::fits(&p.h).then(|| RowMajor::new(&p.h)),
         },
         kind,
     ))
+}
+
+/// `y = H x + beta y` through the rows of H where the system keeps them.
+fn h_times(system: &VelocitySystem, h: &CscMatrix, x: &[f64], beta: f64, y: &mut [f64]) {
+    let rows = match system {
+        VelocitySystem::Direct { h_rows, .. } => h_rows.as_ref(),
+        VelocitySystem::Iterative(pcg) => Some(pcg.h_rows()),
+    };
+    match rows {
+        Some(rows) => rows.mul_vec(x, beta, y),
+        None => h.mul_vec(1.0, x, beta, y),
+    }
 }
 
 /// The cost model of `Auto`: per v-update, two triangular solves read the factor twice;
@@ -331,7 +347,11 @@ impl Splitting for GlobalSplitting {
                     factor,
                     assembly,
                     gram,
+                    h_rows,
                 } => {
+                    if let Some(rows) = h_rows {
+                        rows.take_values(&self.p.h);
+                    }
                     gram.recompute(&self.p.h);
                     factor.reassemble(assembly, base_triplets(&self.p), gram.triplets())
                 }
@@ -350,7 +370,13 @@ impl Splitting for GlobalSplitting {
             self.work_m[i] = self.active[i] * rho * (y[i] + self.c[i] - zeta[i]);
         }
         self.rhs[..n].copy_from_slice(&self.p.f);
-        self.p.h.mul_vec(1.0, &self.work_m, 1.0, &mut self.rhs[..n]);
+        h_times(
+            &self.system,
+            &self.p.h,
+            &self.work_m,
+            1.0,
+            &mut self.rhs[..n],
+        );
         if let Some(j) = &self.p.joints {
             for (t, b) in self.rhs[n..].iter_mut().zip(&j.b) {
                 *t = -b;
@@ -410,7 +436,7 @@ impl Splitting for GlobalSplitting {
         for i in 0..d.len() {
             self.work_m[i] = self.active[i] * d[i];
         }
-        self.p.h.mul_vec(1.0, &self.work_m, 0.0, &mut self.work_n);
+        h_times(&self.system, &self.p.h, &self.work_m, 0.0, &mut self.work_n);
         norm2(&self.work_n)
     }
 

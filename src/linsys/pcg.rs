@@ -159,6 +159,11 @@ impl GramPcg {
         pcg
     }
 
+    /// The rows of H (for products `H x` outside the solve).
+    pub fn h_rows(&self) -> &RowMajor {
+        &self.h_rows
+    }
+
     /// Conjugate-gradient iterations over every solve so far.
     pub fn iterations(&self) -> usize {
         self.iterations

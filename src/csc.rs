@@ -370,10 +370,8 @@ impl CscMatrix {
         debug_assert_eq!(x.len(), self.nrows);
         debug_assert_eq!(y.len(), self.ncols);
         for (j, yj) in y.iter_mut().enumerate() {
-            let mut s = 0.0;
-            for k in self.colptr[j]..self.colptr[j + 1] {
-                s += self.values[k] * x[self.rowind[k]];
-            }
+            let r = self.colptr[j]..self.colptr[j + 1];
+            let s = gather_dot(&self.values[r.clone()], &self.rowind[r], x);
             *yj = alpha * s + if beta == 0.0 { 0.0 } else { beta * *yj };
         }
     }
@@ -549,21 +547,39 @@ impl RowMajor {
     }
 }
 
+/// A stored row or column index (the compressed formats' `usize`, [`RowMajor`]'s `u32`).
+trait StoredIndex: Copy {
+    fn at(self) -> usize;
+}
+
+impl StoredIndex for usize {
+    fn at(self) -> usize {
+        self
+    }
+}
+
+impl StoredIndex for u32 {
+    fn at(self) -> usize {
+        self as usize
+    }
+}
+
 /// `sum_k values[k] x[index[k]]` in four running sums: one sum would wait on each
 /// addition (rows of a few dozen entries are then latency-bound); the order is fixed.
-fn gather_dot(values: &[f64], index: &[u32], x: &[f64]) -> f64 {
+fn gather_dot<I: StoredIndex>(values: &[f64], index: &[I], x: &[f64]) -> f64 {
     const LANES: usize = 4;
+    let at = |j: I| j.at();
     let (vc, ic) = (values.chunks_exact(LANES), index.chunks_exact(LANES));
     let tail: f64 = vc
         .remainder()
         .iter()
         .zip(ic.remainder())
-        .map(|(v, &j)| v * x[j as usize])
+        .map(|(v, &j)| v * x[at(j)])
         .sum();
     let mut acc = [0.0; LANES];
     for (v, j) in vc.zip(ic) {
         for k in 0..LANES {
-            acc[k] += v[k] * x[j[k] as usize];
+            acc[k] += v[k] * x[at(j[k])];
         }
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail

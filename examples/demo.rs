@@ -66,12 +66,17 @@ const PYRAMID_SHIFT: f64 = 1e-3;
 const SLIDE_TOL: f64 = 1e-3;
 
 /// A pyramid of bricks in running bond, 1 cm apart, each row 5 mm above the one below.
+/// Gap between neighbouring bricks of a pyramid row (m): half [`MARGIN`], so that the side
+/// faces' open contacts are in every step's problem. At exactly the margin they came and
+/// went with the round-off of velocities at rest, and the problem with them.
+const SIDE_GAP: f64 = 0.005;
+
 fn pyramid() -> Vec<Body> {
     let mut bodies = Vec::new();
     for row in 0..ROWS {
         let count = ROWS - row;
         for k in 0..count {
-            let x = (k as f64 - 0.5 * (count - 1) as f64) * (2.0 * BRICK.x + 0.01);
+            let x = (k as f64 - 0.5 * (count - 1) as f64) * (2.0 * BRICK.x + SIDE_GAP);
             let z = BRICK.z + row as f64 * (2.0 * BRICK.z + 0.005) + 0.005;
             bodies.push(Body::new(BRICK, BRICK_DENSITY, V3::new(x, 0.0, z)));
         }

@@ -210,3 +210,10 @@ pub const PCG_REDUCTION: f64 = 0.1;
 /// the 10 200-contact lattice, 1.2e5, even; the 10 050-contact irregular pile, 3.6e5, 1.13x
 /// faster; the 25 271-contact one, 8.6e5, 1.2x faster; single runs).
 pub const PARALLEL_MIN_ENTRIES: usize = 200_000;
+
+/// A warm-started global solve leaves out of its v-update system the contacts with no
+/// impulse whose normal velocity at the warm velocity exceeds this fraction of the largest
+/// one (predicted open; brought back when their velocity turns negative). An engine's
+/// open contacts within its margin otherwise slow ADMM down: the demo's steps replayed,
+/// 31 836 iterations with them against 8 416 without.
+pub const SCREEN_RATIO: f64 = 1e-3;

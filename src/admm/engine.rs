@@ -168,6 +168,9 @@ pub fn run(
             accel.rho_changed(s);
             rho = rho_next;
             sp.set_rho(rho)?;
+        } else if sp.system_changed() {
+            accel.rho_changed(1.0);
+            sp.set_rho(rho)?;
         }
     }
     finish(sp, state, &best, x_stale, &mut w.ax, &mut out);

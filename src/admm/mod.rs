@@ -59,6 +59,12 @@ pub trait Splitting {
     /// The run's wall-clock limit, for work inside a step that can stop early (the
     /// iterative backend's conjugate gradients); ignored by default.
     fn set_deadline(&mut self, _deadline: Option<Instant>) {}
+    /// Whether the system changed since the last [`Splitting::set_rho`] (rows it had left
+    /// out came back): the engine then makes the penalty current again and restarts its
+    /// acceleration; never by default.
+    fn system_changed(&self) -> bool {
+        false
+    }
 }
 
 /// When the s parameter is updated.

@@ -21,7 +21,7 @@ use crate::settings::LinearSolver;
 use crate::tuning::{
     FACTOR_MAX_ENTRIES, JOINT_DELTA, MATRIX_FREE_MIN_FILL, PCG_ERROR_SHARE,
     PCG_EXPECTED_ITERATIONS, PCG_FIRST_RELATIVE, PCG_MAX_ITERATIONS, PCG_REDUCTION,
-    PCG_RELATIVE_FLOOR,
+    PCG_RELATIVE_FLOOR, SCREEN_RATIO,
 };
 use crate::types::Error;
 use crate::types::Solution;
@@ -46,9 +46,13 @@ pub struct GlobalSplitting {
     phi: Vec<f64>,
     work_n: Vec<f64>,
     work_m: Vec<f64>,
-    /// 1 for the rows of the contact space in the system, 0 for the tangential rows of
-    /// frictionless contacts ([`super::active_rows`]).
+    /// 1 for the rows of the contact space in the system's pattern, 0 for the tangential
+    /// rows of frictionless contacts ([`super::active_rows`]).
+    in_pattern: Vec<f64>,
+    /// The rows the system holds now: those of `in_pattern` less the screened contacts'.
     active: Vec<f64>,
+    /// Contacts left out of the v-update system for this solve ([`GlobalSplitting::screen`]).
+    screened: Vec<bool>,
     /// Impulse and joint multipliers of the current iterate, for the error measure.
     r: Vec<f64>,
     lambda: Vec<f64>,
@@ -112,7 +116,9 @@ impl GlobalSplitting {
             work_n: vec![0.0; n],
             work_m: vec![0.0; m],
             r: vec![0.0; m],
+            in_pattern: active.clone(),
             active,
+            screened: vec![false; p.n_contacts()],
             lambda: vec![0.0; dim - n],
             measure,
             last_error: f64::INFINITY,
@@ -142,7 +148,7 @@ impl GlobalSplitting {
             .m_mirror
             .as_ref()
             .is_some_and(|mirror| !self.p.m.is_symmetric_with(mirror));
-        if asymmetric || rows_missing(&self.active, &self.p.mu) {
+        if asymmetric || rows_missing(&self.in_pattern, &self.p.mu) {
             let floors = self.measure.floors;
             *self = Self::new(self.p.clone(), self.backend())?;
             self.set_measure_floors(floors);
@@ -186,6 +192,40 @@ impl GlobalSplitting {
     fn refresh_c(&mut self) {
         for i in 0..self.c.len() {
             self.c[i] = -self.p.w[i] - self.phi[i];
+        }
+    }
+
+    /// Leaves out of the v-update system the contacts a warm start predicts open: no
+    /// impulse, and a normal velocity `u` (at the warm velocity) above [`SCREEN_RATIO`]
+    /// times the largest. Their impulse stays zero, which Coulomb's law accepts as long as
+    /// their normal velocity stays non-negative; `error`, which always measures the whole
+    /// problem, brings back any whose velocity turns negative (docs/algorithms.md §15).
+    fn screen(&mut self, r: &[f64], u: &[f64]) {
+        let nc = self.p.n_contacts();
+        let largest = (0..nc).map(|i| u[3 * i].abs()).fold(0.0, f64::max);
+        let threshold = SCREEN_RATIO * largest;
+        for i in 0..nc {
+            let open = r[3 * i..3 * i + 3].iter().all(|&x| x == 0.0) && u[3 * i] > threshold;
+            self.set_screened(i, open);
+        }
+    }
+
+    /// Screens contact `i` or brings it back; the system takes the change at the next
+    /// `set_rho` (as it takes new values).
+    fn set_screened(&mut self, i: usize, screened: bool) {
+        if self.screened[i] != screened {
+            self.screened[i] = screened;
+            for k in 3 * i..3 * i + 3 {
+                self.active[k] = if screened { 0.0 } else { self.in_pattern[k] };
+            }
+            self.stale = true;
+        }
+    }
+
+    /// Brings every screened contact back.
+    fn unscreen_all(&mut self) {
+        for i in 0..self.screened.len() {
+            self.set_screened(i, false);
         }
     }
 }
@@ -352,7 +392,7 @@ impl Splitting for GlobalSplitting {
                     if let Some(rows) = h_rows {
                         rows.take_values(&self.p.h);
                     }
-                    gram.recompute(&self.p.h);
+                    gram.recompute(&self.p.h, &self.active);
                     factor.reassemble(assembly, base_triplets(&self.p), gram.triplets())
                 }
                 VelocitySystem::Iterative(pcg) => pcg.take_values(gram(&self.p, &self.active)),
@@ -417,6 +457,15 @@ impl Splitting for GlobalSplitting {
             let a = get3(ax, i);
             let c = get3(&self.c, i);
             let z = get3(zeta, i);
+            if self.screened[i] {
+                // No projection: the dual update then leaves zeta, the impulse, at zero.
+                set3(
+                    y,
+                    i,
+                    [a[0] - c[0] + z[0], a[1] - c[1] + z[1], a[2] - c[2] + z[2]],
+                );
+                continue;
+            }
             set3(
                 y,
                 i,
@@ -465,7 +514,16 @@ impl Splitting for GlobalSplitting {
         self.deadline = deadline;
     }
 
-    fn error(&mut self, _ax: &[f64], _y: &[f64], zeta: &[f64], rho: f64) -> f64 {
+    fn system_changed(&self) -> bool {
+        self.stale
+    }
+
+    fn error(&mut self, ax: &[f64], _y: &[f64], zeta: &[f64], rho: f64) -> f64 {
+        for i in 0..self.screened.len() {
+            if self.screened[i] && ax[3 * i] + self.p.w[3 * i] < 0.0 {
+                self.set_screened(i, false);
+            }
+        }
         for i in 0..zeta.len() {
             self.r[i] = -rho * zeta[i];
         }
@@ -523,6 +581,7 @@ impl ContactForm for GlobalSplitting {
         // starts from it).
         self.sol.fill(0.0);
         self.reset_shift();
+        self.unscreen_all();
     }
 
     fn separating(&mut self, state: &mut EngineState) -> bool {
@@ -565,12 +624,16 @@ impl ContactForm for GlobalSplitting {
         state.y.fill(0.0);
         let Some(v) = v else {
             self.reset_shift();
+            self.unscreen_all();
             return Ok(());
         };
         // The velocity is the iterate a Newton phase would start from.
         self.sol[..self.p.n()].copy_from_slice(v);
         // u~ = P_K*(H^T v + w + Phi(u)), the shift taken from the same u.
         self.shift_from_velocity(v);
+        let u = std::mem::take(&mut self.work_m);
+        self.screen(r, &u);
+        self.work_m = u;
         self.p.h.mul_t_vec(1.0, v, 0.0, &mut self.work_m);
         for (i, &mu) in self.p.mu.iter().enumerate() {
             let a = get3(&self.work_m, i);
@@ -617,7 +680,7 @@ impl ContactForm for GlobalSplitting {
     }
 
     fn rows(&self) -> usize {
-        count_rows(&self.active)
+        count_rows(&self.in_pattern)
     }
 
     fn blocked_contact(&self) -> Option<usize> {
@@ -732,6 +795,53 @@ mod tests {
         .unwrap()
         .with_joints(g, vec![0.7])
         .unwrap()
+    }
+
+    /// A warm start screens the contacts with no impulse that it sees separating; an
+    /// error measure at a velocity that closes one brings it back and says the system
+    /// changed.
+    #[test]
+    fn screening_follows_the_normal_velocity() {
+        let mut h = Vec::new();
+        for body in 0..2 {
+            for (k, axis) in [2, 0, 1].into_iter().enumerate() {
+                h.push((3 * body + axis, 3 * body + k, 1.0));
+            }
+        }
+        let p = GlobalProblem::new(
+            CscMatrix::identity(6),
+            CscMatrix::from_triplets("H", 6, 6, &h).unwrap(),
+            vec![0.0; 6],
+            vec![0.0; 6],
+            vec![0.5, 0.5],
+        )
+        .unwrap();
+        let mut s = GlobalSplitting::new(p, LinearSolver::Direct).unwrap();
+        let mut state = EngineState {
+            y: vec![0.0; 6],
+            zeta: vec![0.0; 6],
+            ax: vec![0.0; 6],
+            rho: 1.0,
+        };
+        // Contact 0 rises, contact 1 has an impulse: only contact 0 is screened.
+        let r = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0];
+        s.warm_start(&r, Some(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]), &mut state)
+            .unwrap();
+        assert_eq!(s.screened, [true, false]);
+        assert_eq!(&s.active[..3], &[0.0; 3]);
+        s.set_rho(1.0).unwrap();
+        assert!(!s.system_changed());
+        // Its normal velocity turns negative: back in the system.
+        let ax = [-0.5, 0.0, 0.0, 0.0, 0.0, 0.0];
+        s.error(&ax, &state.y, &state.zeta, 1.0);
+        assert_eq!(s.screened, [false, false]);
+        assert!(s.system_changed());
+        assert_eq!(s.active, s.in_pattern);
+        // A cold start screens nothing.
+        s.warm_start(&r, Some(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]), &mut state)
+            .unwrap();
+        s.cold_start(&mut state);
+        assert_eq!(s.screened, [false, false]);
     }
 
     /// `v` of the x-step at `rho` by a dense solve of the unregularized joint system

@@ -58,17 +58,18 @@ impl GramProduct {
             rowind,
             work: vec![0.0; n],
         };
-        product.recompute(h);
+        product.recompute(h, active);
         product
     }
 
-    /// New values of `H` (the pattern it was built with): the product again, with the
-    /// terms of each entry summed in increasing `k`.
-    pub fn recompute(&mut self, h: &CscMatrix) {
+    /// New values of `H` (the pattern it was built with), or new weights: the product
+    /// `sum_k weight_k H(:, k) H(:, k)^T` again, with the terms of each entry summed in
+    /// increasing `k` (a weight of zero leaves a column out, its pattern kept).
+    pub fn recompute(&mut self, h: &CscMatrix, weight: &[f64]) {
         let (hv, hr, hp) = (h.values(), h.rowind(), h.colptr());
         for j in 0..self.colptr.len() - 1 {
             for &(k, at) in &self.row_entries[self.row_start[j]..self.row_start[j + 1]] {
-                let hjk = hv[at];
+                let hjk = weight[k] * hv[at];
                 for p in hp[k]..hp[k + 1] {
                     let i = hr[p];
                     if !self.upper_only || i <= j {
@@ -151,7 +152,7 @@ mod tests {
                 if round == 0 {
                     let scaled: Vec<f64> = h.values().iter().map(|v| 1.5 * v - 0.25).collect();
                     h.set_values("H", &scaled).unwrap();
-                    product.recompute(&h);
+                    product.recompute(&h, &active);
                 }
             }
         }

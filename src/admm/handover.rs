@@ -82,7 +82,14 @@ impl HandoverMonitor {
             false => self.rule.rescue_steps,
         };
         let newton = steps * self.rule.newton_step_iterations;
-        rated && (self.polishing || stalled) && newton < self.admm_iterations_left
+        // An error that has not fallen below its first measure gives no rate, hence no
+        // prediction (a warm start's error may rise over the first iterations, from which
+        // ADMM still finishes in a few): then only a stall hands over.
+        let pays = match self.admm_iterations_left.is_finite() {
+            true => newton < self.admm_iterations_left,
+            false => stalled,
+        };
+        rated && (self.polishing || stalled) && pays
     }
 
     /// How many steps the Newton phase after a handover may take before it no longer pays:
@@ -170,6 +177,20 @@ mod tests {
         let mut m = HandoverMonitor::new(rule(1000.0), 1e-8);
         assert!(!m.hand_over(1e-6, 5));
         assert!(!m.hand_over(1e-6 / 1.01, 10));
+    }
+
+    /// A polishing error that rose since the first measure (a warm start's) gives no
+    /// rate: no handover until it stalls.
+    #[test]
+    fn a_rising_error_without_a_rate_waits_for_a_stall() {
+        let mut m = HandoverMonitor::new(rule(50.0), 1e-8);
+        assert!(!m.hand_over(3.95e-8, 5));
+        assert!(!m.hand_over(6.1e-8, 10));
+        assert!(m.admm_iterations_left.is_infinite());
+        // Not halved over 4 evaluations: a stall, which hands over.
+        assert!(!m.hand_over(5e-8, 15));
+        assert!(!m.hand_over(4.5e-8, 20));
+        assert!(m.hand_over(4.5e-8, 25));
     }
 
     /// Above `error_below`, only a stall hands over, and its Newton phase has no budget.

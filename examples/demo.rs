@@ -14,7 +14,9 @@
 //! sliding distances) and by the solver's honesty on its unsolved steps (CI runs it too). `-- --tol X` solves every step to `X`
 //! instead of 1e-8. `-- --dump DIR` (with `--features fclib`)
 //! writes every step that does not reach the tolerance as `DIR/step-NNN.hdf5` (FCLib) and
-//! its warm start as `DIR/step-NNN-warm.hdf5`, for `cadmm solve FILE --warm WARM`.
+//! its warm start as `DIR/step-NNN-warm.hdf5`, for `cadmm solve FILE --warm WARM`;
+//! `-- --dump-all DIR` writes every step (to time two builds on the same problems: the
+//! trajectory itself follows round-off).
 
 #[path = "demo/scene.rs"]
 mod scene;
@@ -233,9 +235,10 @@ struct Outcome {
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let tilted = args.iter().any(|a| a == "--tilted");
+    let dump_all = args.iter().any(|a| a == "--dump-all");
     let dump_dir = args
         .iter()
-        .position(|a| a == "--dump")
+        .position(|a| a == "--dump" || a == "--dump-all")
         .and_then(|i| args.get(i + 1).cloned());
     let tolerance = match args.iter().position(|a| a == "--tol") {
         None => TOLERANCE,
@@ -367,7 +370,7 @@ fn main() -> ExitCode {
             let stats = *solver.stats();
             let solution = solver.solution();
             let check = global_error(check_problem, &solution.r, &solution.v, &[]);
-            if let (Some(dir), false) = (&dump_dir, status == Status::Solved) {
+            if let (Some(dir), false) = (&dump_dir, status == Status::Solved && !dump_all) {
                 if let Err(e) = dump(dir, step, check_problem, &r0, &v_prev) {
                     eprintln!("--dump: {e}");
                     return ExitCode::FAILURE;

@@ -54,3 +54,44 @@ fn a_contact_predicted_open_that_must_push_comes_back() {
     let error = common::global_error(&p, r, v, &[]);
     assert!(error <= 2.0 * tol, "independent measure {error:e}");
 }
+
+/// The trace measures every iteration, but only the loop's own evaluations decide: a
+/// contact predicted open comes back at the same iteration with and without it. One mass
+/// on two ground contacts: the first carries the warm start's impulse, the second, with
+/// none and the mass rising, is predicted open but must share the load.
+#[test]
+fn the_trace_does_not_change_a_screened_solve() {
+    let mut h = Vec::new();
+    for contact in 0..2 {
+        for (k, axis) in [2, 0, 1].into_iter().enumerate() {
+            h.push((axis, 3 * contact + k, 1.0));
+        }
+    }
+    let p = GlobalProblem::new(
+        CscMatrix::identity(3),
+        CscMatrix::from_triplets("H", 3, 6, &h).unwrap(),
+        vec![0.2, 0.0, -1.0],
+        vec![0.0; 6],
+        vec![0.5, 0.5],
+    )
+    .unwrap();
+    let solve = |trace: bool| {
+        let settings = Settings {
+            tolerance: 1e-10,
+            newton_polish: Some(false),
+            trace,
+            ..Settings::default()
+        };
+        let mut solver = Solver::new(Problem::Global(p.clone()), settings).unwrap();
+        solver
+            .warm_start(&[0.3, 0.0, 0.0, 0.0, 0.0, 0.0], Some(&[0.0, 0.0, 1.0]))
+            .unwrap();
+        let status = solver.solve().unwrap();
+        (status, solver.stats().iterations, solver.solution().clone())
+    };
+    let (quiet, traced) = (solve(false), solve(true));
+    assert_eq!(quiet.0, Status::Solved);
+    assert_eq!((quiet.0, quiet.1), (traced.0, traced.1));
+    assert_eq!(quiet.2.r, traced.2.r);
+    assert_eq!(quiet.2.v, traced.2.v);
+}

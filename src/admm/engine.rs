@@ -323,6 +323,9 @@ impl<'a> StopTest<'a> {
         let check = self.residual_test(sp, state, r)
             || (k + 1) % set.check_every == 0
             || k + 1 == set.max_iterations;
+        if check {
+            sp.readmit(&state.ax);
+        }
         if check || set.trace {
             let error = sp.error(&state.ax, &state.y, &state.zeta, state.rho);
             if set.trace {

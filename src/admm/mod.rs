@@ -59,6 +59,10 @@ pub trait Splitting {
     /// The run's wall-clock limit, for work inside a step that can stop early (the
     /// iterative backend's conjugate gradients); ignored by default.
     fn set_deadline(&mut self, _deadline: Option<Instant>) {}
+    /// At each of the loop's own evaluations (not those made only for the trace): takes
+    /// back the rows left out of the system whose constraint the iterate `ax` now
+    /// violates; nothing by default.
+    fn readmit(&mut self, _ax: &[f64]) {}
     /// Whether the system changed since the last [`Splitting::set_rho`] (rows it had left
     /// out came back): the engine then makes the penalty current again and restarts its
     /// acceleration; never by default.

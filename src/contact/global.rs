@@ -198,8 +198,9 @@ impl GlobalSplitting {
     /// Leaves out of the v-update system the contacts a warm start predicts open: no
     /// impulse, and a normal velocity `u` (at the warm velocity) above [`SCREEN_RATIO`]
     /// times the largest. Their impulse stays zero, which Coulomb's law accepts as long as
-    /// their normal velocity stays non-negative; `error`, which always measures the whole
-    /// problem, brings back any whose velocity turns negative (docs/algorithms.md §15).
+    /// their normal velocity stays non-negative; `readmit`, at each of the loop's own
+    /// evaluations, brings back any whose velocity turned negative, and the error always
+    /// measures the whole problem (docs/algorithms.md §15).
     fn screen(&mut self, r: &[f64], u: &[f64]) {
         let nc = self.p.n_contacts();
         let largest = (0..nc).map(|i| u[3 * i].abs()).fold(0.0, f64::max);
@@ -518,12 +519,15 @@ impl Splitting for GlobalSplitting {
         self.stale
     }
 
-    fn error(&mut self, ax: &[f64], _y: &[f64], zeta: &[f64], rho: f64) -> f64 {
+    fn readmit(&mut self, ax: &[f64]) {
         for i in 0..self.screened.len() {
             if self.screened[i] && ax[3 * i] + self.p.w[3 * i] < 0.0 {
                 self.set_screened(i, false);
             }
         }
+    }
+
+    fn error(&mut self, _ax: &[f64], _y: &[f64], zeta: &[f64], rho: f64) -> f64 {
         for i in 0..zeta.len() {
             self.r[i] = -rho * zeta[i];
         }
@@ -797,9 +801,8 @@ mod tests {
         .unwrap()
     }
 
-    /// A warm start screens the contacts with no impulse that it sees separating; an
-    /// error measure at a velocity that closes one brings it back and says the system
-    /// changed.
+    /// A warm start screens the contacts with no impulse that it sees separating; a
+    /// velocity that closes one brings it back and says the system changed.
     #[test]
     fn screening_follows_the_normal_velocity() {
         let mut h = Vec::new();
@@ -833,7 +836,7 @@ mod tests {
         assert!(!s.system_changed());
         // Its normal velocity turns negative: back in the system.
         let ax = [-0.5, 0.0, 0.0, 0.0, 0.0, 0.0];
-        s.error(&ax, &state.y, &state.zeta, 1.0);
+        s.readmit(&ax);
         assert_eq!(s.screened, [false, false]);
         assert!(s.system_changed());
         assert_eq!(s.active, s.in_pattern);

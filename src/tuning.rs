@@ -214,6 +214,7 @@ pub const PARALLEL_MIN_ENTRIES: usize = 200_000;
 /// A warm-started global solve leaves out of its v-update system the contacts with no
 /// impulse whose normal velocity at the warm velocity exceeds this fraction of the largest
 /// one (predicted open; brought back when their velocity turns negative). An engine's
-/// open contacts within its margin otherwise slow ADMM down: the demo's steps replayed,
-/// 31 836 iterations with them against 8 416 without.
+/// open contacts within its margin otherwise slow ADMM down: 300 steps of the demo with
+/// its pyramid's side faces 5 mm apart, replayed, took ADMM alone 31 836 iterations with
+/// them against 8 416 with them removed.
 pub const SCREEN_RATIO: f64 = 1e-3;

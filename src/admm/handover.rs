@@ -121,7 +121,8 @@ impl HandoverMonitor {
 
     /// Iterations ADMM still needs at its rate over the last `RATE_WINDOW` evaluations, or
     /// over the whole loop when the error did not fall over those (infinite when it did not
-    /// fall at all). Called before the evaluation is recorded.
+    /// fall at all); near the tolerance, at most those from the best error at the whole
+    /// loop's average rate to it. Called before the evaluation is recorded.
     fn iterations_left(&self, error: f64, iterations: usize) -> f64 {
         if error <= self.tolerance {
             return 0.0;
@@ -129,31 +130,30 @@ impl HandoverMonitor {
         if self.checks == 0 {
             return f64::INFINITY;
         }
+        // Geometric decrease per iteration from (e0 after k0 iterations) to `e` now.
+        let rate = |e: f64, (e0, k0): (f64, usize)| {
+            (e / e0).powf(1.0 / iterations.saturating_sub(k0).max(1) as f64)
+        };
+        let left = |e: f64, r: f64| match r < 1.0 {
+            true => (self.tolerance / e).ln() / r.ln(),
+            false => f64::INFINITY,
+        };
         let oldest = match self.checks >= RATE_WINDOW {
             true => self.window[self.checks % RATE_WINDOW],
             false => self.first,
         };
-        let rate_since = |(e0, k0): (f64, usize)| {
-            (error / e0).powf(1.0 / iterations.saturating_sub(k0).max(1) as f64)
-        };
-        let rate = [oldest, self.first]
+        let at_rate = [oldest, self.first]
             .into_iter()
-            .map(rate_since)
-            .find(|r| *r < 1.0);
-        let at_rate = rate.map_or(f64::INFINITY, |r| (self.tolerance / error).ln() / r.ln());
+            .map(|from| rate(error, from))
+            .find(|r| *r < 1.0)
+            .map_or(f64::INFINITY, |r| left(error, r));
         // Anderson's errors are not monotone: near the tolerance a window that ends on an
         // upswing predicts far too many iterations. Once the best error so far is below
         // the handover error, the best at the whole run's average rate to it (the
         // iterations since counted in) is the other prediction, and the lower one holds.
         let best = self.best.min(error);
-        let (e0, k0) = self.first;
-        let average = (best / e0).powf(1.0 / iterations.saturating_sub(k0).max(1) as f64);
-        let from_best = match average < 1.0 {
-            true => (self.tolerance / best).ln() / average.ln(),
-            false => f64::INFINITY,
-        };
         match best <= self.rule.error_below {
-            true => at_rate.min(from_best),
+            true => at_rate.min(left(best, rate(best, self.first))),
             false => at_rate,
         }
     }

@@ -79,6 +79,15 @@ pub const ROUND_OFF_MARGIN: f64 = 1e-3;
 /// solution misses the whole problem's tolerance (docs/algorithms.md §12).
 pub const ISLAND_ROUNDS: usize = 4;
 
+/// A Newton step solved through the system reduced to the velocities is refined on the
+/// unreduced residual up to this many times ...
+pub const REDUCED_REFINEMENTS: usize = 3;
+
+/// ... until that residual is at most this fraction of the right-hand side; otherwise the
+/// unreduced system is solved instead. An inexact Newton direction with this forcing term
+/// keeps the local convergence far below any tolerance a caller can ask for.
+pub const REDUCED_RESIDUAL: f64 = 1e-10;
+
 /// Steps of the first Newton phase of a small problem.
 pub const NEWTON_FIRST_STEPS: usize = 50;
 

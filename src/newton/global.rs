@@ -23,6 +23,7 @@
 //! [`super::local`]: the proximal term keeps the matrix invertible when contacts (or
 //! joints) are redundant. The error measure is `crate::measure::global_error`.
 
+use super::reduced::{ReducedSystem, StepBlocks};
 use super::sparse::{Pattern, SparseLu};
 use super::{
     ac_branch, backtrack, impulse_scale, iterate, rho_from_block, AcPoint, Branch, NewtonOutcome,
@@ -46,16 +47,15 @@ pub struct GlobalNewton {
     joint_scale: Vec<f64>,
     /// `diag(M)^-1` (scaling work).
     minv: Vec<f64>,
-    m_dest: Vec<usize>,
-    g_dest: Vec<usize>,
-    gt_dest: Vec<usize>,
-    h_dest: Vec<usize>,
-    /// Per H entry (row j, column c): position of row `n + p + 3 (c / 3)` in column j.
-    ah_dest: Vec<usize>,
-    /// Per contact column c: position of the first row of its diagonal block.
-    diag_dest: Vec<usize>,
-    lam_dest: Vec<usize>,
-    lu: SparseLu,
+    /// The system reduced to the velocities, solved first at every step.
+    reduced: ReducedSystem,
+    /// The unreduced system, built at the first step the reduced one refuses.
+    unreduced: Option<Unreduced>,
+    /// `alpha / rho_i` per contact and `alpha S_k` per joint, at the current step.
+    reg: Vec<f64>,
+    joint_reg: Vec<f64>,
+    /// Right-hand side of the Newton system.
+    rhs: Vec<f64>,
     // Residual pieces at the current point and their trial counterparts.
     rv: Vec<f64>,
     rl: Vec<f64>,
@@ -97,16 +97,23 @@ struct Blocks<'a> {
     h: &'a CscMatrix,
 }
 
-/// Where the entries of each block land in the values of the Newton matrix (see the
-/// fields `*_dest` of [`GlobalNewton`]).
+/// Where the entries of each block land in the values of the unreduced Newton matrix.
 struct Destinations {
     m: Vec<usize>,
     g: Vec<usize>,
     gt: Vec<usize>,
     h: Vec<usize>,
+    /// Per H entry (row j, column c): position of row `n + p + 3 (c / 3)` in column j.
     ah: Vec<usize>,
+    /// Per contact column c: position of the first row of its diagonal block.
     diag: Vec<usize>,
     lam: Vec<usize>,
+}
+
+/// The unreduced Newton matrix (module documentation) and its LU.
+struct Unreduced {
+    dest: Destinations,
+    lu: SparseLu,
 }
 
 impl Blocks<'_> {
@@ -160,57 +167,30 @@ impl Blocks<'_> {
 }
 
 impl GlobalNewton {
-    /// Builds the Newton pattern and its symbolic LU; `rho_i = 1 / ||W_ii||_F` with
-    /// `W_ii` approximated by `H_i^T diag(M)^-1 H_i` (exact for a diagonal M, and W is
-    /// never formed).
+    /// Builds the reduced Newton system and its symbolic LU; `rho_i = 1 / ||W_ii||_F`
+    /// with `W_ii` approximated by `H_i^T diag(M)^-1 H_i` (exact for a diagonal M, and W
+    /// is never formed).
     pub fn new(prob: &GlobalProblem) -> Result<Self, Error> {
         let n = prob.n();
         let nc = prob.n_contacts();
         let empty = CscMatrix::from_triplets("G", n, 0, &[])?;
         let g = prob.joints.as_ref().map_or(&empty, |j| &j.g);
-        let blocks = Blocks {
-            n,
-            p: g.ncols(),
-            m: 3 * nc,
-            mm: &prob.m,
-            g,
-            h: &prob.h,
-        };
-        let pat = blocks.pattern();
-        let dest = blocks.destinations(&pat);
-        let lu = SparseLu::new("global Newton matrix", pat)?;
-        let mut newton = Self::with_workspace(prob, &blocks, dest, lu);
-        newton.take_values(prob);
-        Ok(newton)
-    }
-
-    /// The solver around its factorization, with every work vector sized (zero) for the
-    /// problem; the values are taken afterwards.
-    fn with_workspace(
-        prob: &GlobalProblem,
-        blocks: &Blocks,
-        dest: Destinations,
-        lu: SparseLu,
-    ) -> Self {
-        let Blocks { n, p, m, mm, g, h } = *blocks;
-        let nc = prob.n_contacts();
-        let nz = n + p + m;
-        Self {
+        let p = g.ncols();
+        let reduced = ReducedSystem::new(&prob.m, &prob.h, g)?;
+        let nz = n + p + 3 * nc;
+        let mut newton = Self {
             n,
             p,
             nc,
-            patterns: [pattern_of(mm), pattern_of(h), pattern_of(g)],
+            patterns: [pattern_of(&prob.m), pattern_of(&prob.h), pattern_of(g)],
             rho: vec![0.0; nc],
             joint_scale: vec![0.0; p],
             minv: vec![0.0; n],
-            m_dest: dest.m,
-            g_dest: dest.g,
-            gt_dest: dest.gt,
-            h_dest: dest.h,
-            ah_dest: dest.ah,
-            diag_dest: dest.diag,
-            lam_dest: dest.lam,
-            lu,
+            reduced,
+            unreduced: None,
+            reg: vec![0.0; nc],
+            joint_reg: vec![0.0; p],
+            rhs: vec![0.0; nz],
             rv: vec![0.0; n],
             rl: vec![0.0; p],
             point: AcPoint::new(nc),
@@ -218,13 +198,35 @@ impl GlobalNewton {
             d: vec![0.0; nz],
             jd_v: vec![0.0; n],
             gt_dv: vec![0.0; p],
-            ht_dv: vec![0.0; m],
+            ht_dv: vec![0.0; 3 * nc],
             z_trial: vec![0.0; nz],
             best: vec![0.0; nz],
             z: vec![0.0; nz],
             measure: MeasureWork::global(prob),
-            u_free: vec![0.0; m],
-        }
+            u_free: vec![0.0; 3 * nc],
+        };
+        newton.take_values(prob);
+        Ok(newton)
+    }
+
+    /// The unreduced system for `prob`'s patterns (built once, at the first refusal of
+    /// the reduced one).
+    fn unreduced(prob: &GlobalProblem) -> Result<Unreduced, Error> {
+        let n = prob.n();
+        let empty = CscMatrix::from_triplets("G", n, 0, &[])?;
+        let g = prob.joints.as_ref().map_or(&empty, |j| &j.g);
+        let blocks = Blocks {
+            n,
+            p: g.ncols(),
+            m: 3 * prob.n_contacts(),
+            mm: &prob.m,
+            g,
+            h: &prob.h,
+        };
+        let pat = blocks.pattern();
+        let dest = blocks.destinations(&pat);
+        let lu = SparseLu::new("global Newton matrix", pat)?;
+        Ok(Unreduced { dest, lu })
     }
 
     /// Floors of the error measure (an island's share of a scene's measure).
@@ -266,6 +268,53 @@ impl GlobalNewton {
                 *scale = if s > 0.0 && s.is_finite() { s } else { 1.0 };
             }
         }
+    }
+
+    /// Assembles, factorizes and solves the unreduced Newton matrix for `rhs` into `d`.
+    fn unreduced_direction(&mut self, prob: &GlobalProblem) -> bool {
+        if self.unreduced.is_none() {
+            match Self::unreduced(prob) {
+                Ok(u) => self.unreduced = Some(u),
+                Err(_) => return false,
+            }
+        }
+        let Some(Unreduced { dest, lu }) = &mut self.unreduced else {
+            return false;
+        };
+        let vals = &mut lu.values;
+        vals.fill(0.0);
+        for (k, &v) in prob.m.values().iter().enumerate() {
+            vals[dest.m[k]] = v;
+        }
+        if let Some(j) = &prob.joints {
+            for (k, &v) in j.g.values().iter().enumerate() {
+                vals[dest.g[k]] = -v;
+                vals[dest.gt[k]] = v;
+            }
+        }
+        for (&k, &reg) in dest.lam.iter().zip(&self.joint_reg) {
+            vals[k] = reg;
+        }
+        for (k, (_, c, v)) in entries(&prob.h).enumerate() {
+            vals[dest.h[k]] = -v;
+            // A H^T: entry H[j, c] feeds rows 3i..3i+3 of column j through column c % 3 of A_i.
+            let (ai, b, base) = (&self.point.a[c / 3], c % 3, dest.ah[k]);
+            for row in 0..3 {
+                vals[base + row] += ai[row][b] * v;
+            }
+        }
+        for c in 0..3 * self.nc {
+            let i = c / 3;
+            let (ai, bi, col, base) = (&self.point.a[i], &self.point.b[i], c % 3, dest.diag[c]);
+            for row in 0..3 {
+                vals[base + row] += bi[row][col] + self.reg[i] * ai[row][col];
+            }
+        }
+        if !lu.factor() {
+            return false;
+        }
+        self.d.copy_from_slice(&self.rhs);
+        lu.solve_in_place(&mut self.d)
     }
 
     fn check(
@@ -350,7 +399,7 @@ impl NewtonSystem for GlobalNewton {
     }
 
     fn factorizations(&self) -> usize {
-        self.lu.factorizations()
+        self.reduced.factorizations() + self.unreduced.as_ref().map_or(0, |u| u.lu.factorizations())
     }
 
     fn impulse_scale(&self, _: &GlobalProblem, z: &[f64]) -> f64 {
@@ -381,58 +430,39 @@ impl NewtonSystem for GlobalNewton {
         0.5 * merit + self.point.evaluate(r, &prob.mu, &self.rho)
     }
 
-    /// Assembles and factorizes the Newton matrix, solves for the direction; false when
-    /// singular or not finite.
+    /// Solves the Newton system for the direction, reduced to the velocities when that
+    /// solve is accurate and unreduced otherwise; false when singular or not finite.
     fn direction(&mut self, prob: &GlobalProblem, alpha: f64) -> bool {
         let (n, p) = (self.n, self.p);
-        let vals = &mut self.lu.values;
-        vals.fill(0.0);
-        for (k, &v) in prob.m.values().iter().enumerate() {
-            vals[self.m_dest[k]] = v;
+        for (reg, rho) in self.reg.iter_mut().zip(&self.rho) {
+            *reg = alpha / rho;
         }
-        if let Some(j) = &prob.joints {
-            for (k, &v) in j.g.values().iter().enumerate() {
-                vals[self.g_dest[k]] = -v;
-                vals[self.gt_dest[k]] = v;
-            }
+        for (reg, s) in self.joint_reg.iter_mut().zip(&self.joint_scale) {
+            *reg = alpha * s;
         }
-        for k in 0..p {
-            vals[self.lam_dest[k]] = alpha * self.joint_scale[k];
+        for (x, r) in self.rhs.iter_mut().zip(self.rv.iter().chain(&self.rl)) {
+            *x = -r;
         }
-        for (k, (_, c, v)) in entries(&prob.h).enumerate() {
-            vals[self.h_dest[k]] = -v;
-            // A H^T: entry H[j, c] feeds rows 3i..3i+3 of column j through column c % 3 of A_i.
-            let (ai, b, base) = (&self.point.a[c / 3], c % 3, self.ah_dest[k]);
-            for row in 0..3 {
-                vals[base + row] += ai[row][b] * v;
-            }
+        for (x, f) in self.rhs[n + p..].iter_mut().zip(&self.point.f) {
+            *x = -f;
         }
-        for c in 0..3 * self.nc {
-            let i = c / 3;
-            let (ai, bi, col, base) =
-                (&self.point.a[i], &self.point.b[i], c % 3, self.diag_dest[c]);
-            let reg = alpha / self.rho[i];
-            for row in 0..3 {
-                vals[base + row] += bi[row][col] + reg * ai[row][col];
-            }
-        }
-        if !self.lu.factor() {
-            return false;
-        }
-        let d = &mut self.d;
-        for k in 0..n {
-            d[k] = -self.rv[k];
-        }
-        for k in 0..p {
-            d[n + k] = -self.rl[k];
-        }
-        for (k, f) in self.point.f.iter().enumerate() {
-            d[n + p + k] = -f;
-        }
-        if !self.lu.solve_in_place(d) {
+        let blocks = StepBlocks {
+            m: &prob.m,
+            h: &prob.h,
+            g: prob.joints.as_ref().map(|j| &j.g),
+            a: &self.point.a,
+            b: &self.point.b,
+            reg: &self.reg,
+            joint_reg: &self.joint_reg,
+        };
+        let solved = (self.reduced.factor(&blocks)
+            && self.reduced.solve(&blocks, &self.rhs, &mut self.d))
+            || self.unreduced_direction(prob);
+        if !solved {
             return false;
         }
         // Images of the direction for the linear updates of the line search.
+        let d = &self.d;
         let (dv, dl, dr) = (&d[..n], &d[n..n + p], &d[n + p..]);
         prob.m.mul_vec(1.0, dv, 0.0, &mut self.jd_v);
         prob.h.mul_vec(-1.0, dr, 1.0, &mut self.jd_v);
@@ -543,7 +573,9 @@ fn weighted_dot(a: &CscMatrix, c1: usize, c2: usize, w: &[f64]) -> f64 {
 mod tests {
     use super::*;
     use crate::measure::global_error;
-    use crate::newton::testing::{box_problem, duplicated, perturb, point_mass_problem, DT, G};
+    use crate::newton::testing::{
+        box_problem, duplicated, perturb, point_mass_problem, random_stacks, DT, G,
+    };
 
     struct Run {
         v: Vec<f64>,
@@ -661,6 +693,72 @@ mod tests {
         report("box with duplicated corners (cold)", &run.out);
         assert!(run.out.converged());
         assert!(run.v.iter().all(|v| v.abs() < 1e-8));
+    }
+
+    /// The reduced solve against the unreduced LU at one point of `p`: same direction.
+    /// Returns the contact states met at that point.
+    fn directions_agree(p: &GlobalProblem, seed: u64, alpha: f64) -> Vec<String> {
+        let mut s = GlobalNewton::new(p).unwrap();
+        let (n, np) = (p.n(), p.n() + p.n_joints());
+        let mut z = vec![0.0; np + 3 * p.n_contacts()];
+        perturb(&mut z[..n], 1.0, 0.05, seed);
+        // Impulses of every kind: open (0), sticking and sliding (large tangential).
+        perturb(&mut z[np..], 1.0, 0.2, seed + 1);
+        for (i, c) in z[np..].chunks_mut(3).enumerate() {
+            c[0] = [0.0, 0.3, 0.5][i % 3];
+        }
+        s.evaluate_at(p, &z);
+        // Fills the right-hand side and regularization for the step, then solves again
+        // through the reduced system alone, which must accept its own solve.
+        assert!(s.direction(p, alpha));
+        let blocks = StepBlocks {
+            m: &p.m,
+            h: &p.h,
+            g: p.joints.as_ref().map(|j| &j.g),
+            a: &s.point.a,
+            b: &s.point.b,
+            reg: &s.reg,
+            joint_reg: &s.joint_reg,
+        };
+        let mut reduced = vec![0.0; s.d.len()];
+        assert!(s.reduced.factor(&blocks) && s.reduced.solve(&blocks, &s.rhs, &mut reduced));
+        assert!(s.unreduced_direction(p));
+        let diff = reduced.iter().zip(&s.d).map(|(a, b)| (a - b).powi(2)).sum::<f64>();
+        let size = s.d.iter().map(|x| x * x).sum::<f64>();
+        assert!(
+            diff.sqrt() <= 1e-8 * size.sqrt(),
+            "seed {seed}, alpha {alpha:e}: {:e} apart, |d| {:e}",
+            diff.sqrt(),
+            size.sqrt()
+        );
+        (0..p.n_contacts())
+            .map(|i| {
+                let (r, u) = (&z[np + 3 * i..np + 3 * i + 3], &s.point.u[3 * i..3 * i + 3]);
+                let branch = ac_branch(
+                    [r[0], r[1], r[2]],
+                    [u[0], u[1], u[2]],
+                    p.mu[i],
+                    s.rho[i],
+                    s.rho[i],
+                );
+                format!("{branch:?}")
+            })
+            .collect()
+    }
+
+    #[test]
+    fn reduced_direction_matches_the_unreduced_system() {
+        let stacks = random_stacks(4, 12, 20.0, 7);
+        let g = CscMatrix::from_triplets("G", 72, 2, &[(1, 0, 1.0), (13, 1, 1.0)]).unwrap();
+        let jointed = stacks[0].clone().with_joints(g, vec![-0.02, 0.01]).unwrap();
+        let mut branches = std::collections::BTreeSet::new();
+        for (k, p) in stacks.iter().chain([&jointed]).enumerate() {
+            for alpha in [1e-2, 1e-5, 1e-8] {
+                branches.extend(directions_agree(p, 11 * k as u64, alpha));
+            }
+        }
+        // Every kind of contact block was eliminated.
+        assert_eq!(branches.len(), 3, "{branches:?}");
     }
 
     #[test]

@@ -7,6 +7,7 @@
 pub mod alart_curnier;
 pub mod global;
 pub mod local;
+mod reduced;
 mod sparse;
 #[cfg(test)]
 mod testing;

@@ -723,7 +723,11 @@ mod tests {
         let mut reduced = vec![0.0; s.d.len()];
         assert!(s.reduced.factor(&blocks) && s.reduced.solve(&blocks, &s.rhs, &mut reduced));
         assert!(s.unreduced_direction(p));
-        let diff = reduced.iter().zip(&s.d).map(|(a, b)| (a - b).powi(2)).sum::<f64>();
+        let diff = reduced
+            .iter()
+            .zip(&s.d)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>();
         let size = s.d.iter().map(|x| x * x).sum::<f64>();
         assert!(
             diff.sqrt() <= 1e-8 * size.sqrt(),

@@ -44,10 +44,11 @@ pub const NEWTON_EXPECTED_STEPS: f64 = 4.0;
 /// ADMM needed about 1 300 iterations).
 pub const NEWTON_RESCUE_STEPS: f64 = 30.0;
 
-/// A Newton step's cost in ADMM iterations: its factorization of the unreduced system
-/// against an iteration's triangular solves. Measured at handovers: 55 to 85 on
+/// A Newton step's cost in ADMM iterations: its factorization against an iteration's
+/// triangular solves. Measured at handovers with the unreduced system: 55 to 85 on
 /// Box_Stacks, 60 on a 2 845-contact sphere pile, 35 to 90 on an engine's pile of 31
-/// bricks, 10 to 25 on Capsules. A constant, not the cost measured on the problem at hand:
+/// bricks, 10 to 25 on Capsules; with the system reduced to the velocities, 16 to 28 on
+/// Box_Stacks and about 85 on the pile (its LU's column ordering fills more there). A constant, not the cost measured on the problem at hand:
 /// a decision taken on wall-clock times would make the same solve differ from run to run
 /// with the machine's load (two solves on eight threads did). With 4 expected steps the
 /// handover waits while ADMM is within 200 iterations of the tolerance, as the rule tuned

@@ -270,6 +270,21 @@ impl GlobalNewton {
         }
     }
 
+    /// Factorizes the reduced Newton matrix and solves for `rhs` into `d`; false when the
+    /// reduced solve is refused (docs/algorithms.md §9.2).
+    fn reduced_direction(&mut self, prob: &GlobalProblem) -> bool {
+        let blocks = StepBlocks {
+            m: &prob.m,
+            h: &prob.h,
+            g: prob.joints.as_ref().map(|j| &j.g),
+            a: &self.point.a,
+            b: &self.point.b,
+            reg: &self.reg,
+            joint_reg: &self.joint_reg,
+        };
+        self.reduced.factor(&blocks) && self.reduced.solve(&blocks, &self.rhs, &mut self.d)
+    }
+
     /// Assembles, factorizes and solves the unreduced Newton matrix for `rhs` into `d`.
     fn unreduced_direction(&mut self, prob: &GlobalProblem) -> bool {
         if self.unreduced.is_none() {
@@ -446,19 +461,7 @@ impl NewtonSystem for GlobalNewton {
         for (x, f) in self.rhs[n + p..].iter_mut().zip(&self.point.f) {
             *x = -f;
         }
-        let blocks = StepBlocks {
-            m: &prob.m,
-            h: &prob.h,
-            g: prob.joints.as_ref().map(|j| &j.g),
-            a: &self.point.a,
-            b: &self.point.b,
-            reg: &self.reg,
-            joint_reg: &self.joint_reg,
-        };
-        let solved = (self.reduced.factor(&blocks)
-            && self.reduced.solve(&blocks, &self.rhs, &mut self.d))
-            || self.unreduced_direction(prob);
-        if !solved {
+        if !(self.reduced_direction(prob) || self.unreduced_direction(prob)) {
             return false;
         }
         // Images of the direction for the linear updates of the line search.
@@ -711,17 +714,8 @@ mod tests {
         // Fills the right-hand side and regularization for the step, then solves again
         // through the reduced system alone, which must accept its own solve.
         assert!(s.direction(p, alpha));
-        let blocks = StepBlocks {
-            m: &p.m,
-            h: &p.h,
-            g: p.joints.as_ref().map(|j| &j.g),
-            a: &s.point.a,
-            b: &s.point.b,
-            reg: &s.reg,
-            joint_reg: &s.joint_reg,
-        };
-        let mut reduced = vec![0.0; s.d.len()];
-        assert!(s.reduced.factor(&blocks) && s.reduced.solve(&blocks, &s.rhs, &mut reduced));
+        assert!(s.reduced_direction(p));
+        let reduced = s.d.clone();
         assert!(s.unreduced_direction(p));
         let diff = reduced
             .iter()

@@ -504,16 +504,6 @@ impl RowMajor {
         rows
     }
 
-    /// The columns of `a` as the rows: `row_dot(j, x)` is `(a^T x)_j`.
-    pub fn columns(a: &CscMatrix) -> Self {
-        Self {
-            start: a.colptr.clone(),
-            col: a.rowind.iter().map(|&i| index32(i)).collect(),
-            source: (0..a.nnz()).collect(),
-            values: a.values.clone(),
-        }
-    }
-
     /// Whether every index of `a` fits the 32-bit storage.
     pub fn fits(a: &CscMatrix) -> bool {
         a.nrows.max(a.ncols) <= u32::MAX as usize

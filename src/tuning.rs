@@ -213,6 +213,11 @@ pub const MATRIX_FREE_MIN_FILL: usize = 1_000_000;
 /// 5.8 s).
 pub const PCG_REDUCTION: f64 = 0.1;
 
+/// A matrix-free v-update starts from the residual its last solve left (plus the change of
+/// right-hand side) instead of a product with the operator, except every this many solves,
+/// where the product brings round-off in the recurrence back to the true residual.
+pub const PCG_TRUE_RESIDUAL_EVERY: usize = 8;
+
 /// The matrix-free products run on the solver's threads (`Settings::threads`, for a problem
 /// solved whole) when `M` and `H` hold at least this many entries together: below,
 /// starting scoped threads twice per conjugate-gradient iteration costs what it saves (2
@@ -220,6 +225,11 @@ pub const PCG_REDUCTION: f64 = 0.1;
 /// the 10 200-contact lattice, 1.2e5, even; the 10 050-contact irregular pile, 3.6e5, 1.13x
 /// faster; the 25 271-contact one, 8.6e5, 1.2x faster; single runs).
 pub const PARALLEL_MIN_ENTRIES: usize = 200_000;
+
+/// The matrix-free products of such a system split its contacts into this many fixed
+/// chunks, each scattering into its own buffer: the threads run the chunks, and the sum
+/// does not depend on how many there are (beyond this many, threads sit idle in them).
+pub const PRODUCT_CHUNKS: usize = 4;
 
 /// A warm-started global solve leaves out of its v-update system the contacts with no
 /// impulse whose normal velocity at the warm velocity exceeds this fraction of the largest

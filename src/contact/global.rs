@@ -326,8 +326,7 @@ fn velocity_system(
 ) -> Result<(VelocitySystem, FactorKind), Error> {
     let iterative = || VelocitySystem::Iterative(GramPcg::new(gram(p, active)));
     // Checked before anything is assembled: the matrix-free backend never forms the matrix.
-    let eligible =
-        p.n_joints() == 0 && p.m.is_symmetric() && RowMajor::fits(&p.m) && RowMajor::fits(&p.h);
+    let eligible = p.n_joints() == 0 && GramPcg::fits(gram(p, active));
     if eligible && choice == LinearSolver::Iterative {
         return Ok((iterative(), FactorKind::Cholesky));
     }
@@ -347,15 +346,19 @@ fn velocity_system(
     ))
 }
 
-/// `y = H x + beta y` through the rows of H where the system keeps them.
-fn h_times(system: &VelocitySystem, h: &CscMatrix, x: &[f64], beta: f64, y: &mut [f64]) {
-    let rows = match system {
-        VelocitySystem::Direct { h_rows, .. } => h_rows.as_ref(),
-        VelocitySystem::Iterative(pcg) => Some(pcg.h_rows()),
-    };
-    match rows {
-        Some(rows) => rows.mul_vec(x, beta, y),
-        None => h.mul_vec(1.0, x, beta, y),
+/// `y = H x + beta y` (`beta` 0 or 1) through the storage of H the system keeps.
+fn h_times(system: &mut VelocitySystem, h: &CscMatrix, x: &[f64], beta: f64, y: &mut [f64]) {
+    match system {
+        VelocitySystem::Direct {
+            h_rows: Some(rows), ..
+        } => rows.mul_vec(x, beta, y),
+        VelocitySystem::Direct { h_rows: None, .. } => h.mul_vec(1.0, x, beta, y),
+        VelocitySystem::Iterative(pcg) => {
+            if beta == 0.0 {
+                y.fill(0.0);
+            }
+            pcg.h_mul_add(x, y);
+        }
     }
 }
 
@@ -412,7 +415,7 @@ impl Splitting for GlobalSplitting {
         }
         self.rhs[..n].copy_from_slice(&self.p.f);
         h_times(
-            &self.system,
+            &mut self.system,
             &self.p.h,
             &self.work_m,
             1.0,
@@ -430,7 +433,7 @@ impl Splitting for GlobalSplitting {
                 let scale = self.measure.scales.equation;
                 let stop = inexact_stop(self.last_error, scale, norm2(&self.rhs), self.deadline);
                 pcg.solve(gram(&self.p, &self.active), &self.rhs, &mut self.sol, stop);
-                self.p.h.mul_t_vec(1.0, &self.sol, 0.0, ax);
+                pcg.h_t_mul(&self.sol, ax);
                 return;
             }
         };
@@ -486,7 +489,13 @@ impl Splitting for GlobalSplitting {
         for i in 0..d.len() {
             self.work_m[i] = self.active[i] * d[i];
         }
-        h_times(&self.system, &self.p.h, &self.work_m, 0.0, &mut self.work_n);
+        h_times(
+            &mut self.system,
+            &self.p.h,
+            &self.work_m,
+            0.0,
+            &mut self.work_n,
+        );
         norm2(&self.work_n)
     }
 

@@ -5,11 +5,13 @@
 //! rho rule that oscillates between two values does not refactorize back and forth. Small
 //! ones (an island of a few contacts) are factorized densely.
 
+mod contact_columns;
 pub(crate) mod dense;
 mod gram_product;
 pub mod param_matrix;
 mod pcg;
 mod sparse_factor;
+mod workers;
 
 use dense::DenseFactor;
 pub use dense::DENSE_MAX;

@@ -8,31 +8,14 @@
 //! densely at each new rho. Components larger than [`BLOCK_MAX`] (a finite-element mesh's
 //! M) fall back to their diagonal.
 
+use super::contact_columns::ContactColumns;
 use super::dense::{cholesky, cholesky_solve};
+use super::workers::Workers;
 use crate::csc::{dot, norm2, CscMatrix, RowMajor};
 use crate::islands::DisjointSets;
-use crate::tuning::PARALLEL_MIN_ENTRIES;
+use crate::tuning::{PARALLEL_MIN_ENTRIES, PCG_TRUE_RESIDUAL_EVERY};
 use crate::types::Error;
 use std::time::Instant;
-
-/// Runs `fill(first, chunk)` on `threads` contiguous chunks of `out` at once, the first
-/// chunk on the calling thread and the others on scoped threads.
-fn in_chunks(threads: usize, out: &mut [f64], fill: impl Fn(usize, &mut [f64]) + Sync) {
-    if threads <= 1 || out.len() < 2 {
-        fill(0, out);
-        return;
-    }
-    let len = out.len().div_ceil(threads);
-    std::thread::scope(|scope| {
-        let mut chunks = out.chunks_mut(len).enumerate();
-        let (_, head) = chunks.next().expect("out is not empty");
-        for (k, chunk) in chunks {
-            let fill = &fill;
-            scope.spawn(move || fill(k * len, chunk));
-        }
-        fill(0, head);
-    });
-}
 
 /// Largest diagonal block the preconditioner factorizes (a rigid body has 6 velocities; a
 /// body with a few extra coordinates still fits).
@@ -99,15 +82,20 @@ pub struct GramPcg {
     z: Vec<f64>,
     p: Vec<f64>,
     q: Vec<f64>,
-    /// `D H^T p`, in the contact space.
-    contact: Vec<f64>,
-    /// H by columns and by rows, and M by rows, for the products `M p + rho H (D H^T p)`
-    /// (gathers).
-    h_cols: RowMajor,
-    h_rows: RowMajor,
+    /// The last solve's right-hand side and answer: while the operator stays, the next
+    /// solve's starting residual is `r + b_next - b` (the recurrence's residual), which
+    /// saves a product.
+    last_b: Vec<f64>,
+    last_x: Vec<f64>,
+    /// Solves left that may start from the recurrence's residual (0: compute it): reset by
+    /// a new operator, and every [`PCG_TRUE_RESIDUAL_EVERY`] solves so that round-off does
+    /// not pile up in it.
+    recurrences_left: usize,
+    /// H contact by contact and M by rows, for the products `M p + rho H D H^T p`.
+    h: ContactColumns,
     m_rows: RowMajor,
-    /// Threads the products run on (their results do not depend on it).
-    threads: usize,
+    /// Threads the products run on (their results do not depend on them).
+    workers: Workers,
     /// Conjugate-gradient iterations over every solve.
     iterations: usize,
     /// Numeric block factorizations so far.
@@ -147,11 +135,12 @@ impl GramPcg {
             z: vec![0.0; n],
             p: vec![0.0; n],
             q: vec![0.0; n],
-            contact: vec![0.0; a.h.ncols()],
-            h_cols: RowMajor::columns(a.h),
-            h_rows: RowMajor::new(a.h),
+            last_b: vec![0.0; n],
+            last_x: vec![0.0; n],
+            recurrences_left: 0,
+            h: ContactColumns::new(a.h),
             m_rows: RowMajor::new(a.m),
-            threads: 1,
+            workers: Workers::serial(),
             iterations: 0,
             factorizations: 0,
         };
@@ -159,9 +148,20 @@ impl GramPcg {
         pcg
     }
 
-    /// The rows of H (for products `H x` outside the solve).
-    pub fn h_rows(&self) -> &RowMajor {
-        &self.h_rows
+    /// Whether `a` can be solved so: a symmetric M, H with three columns per contact,
+    /// indices that fit the 32-bit storage.
+    pub fn fits(a: Gram) -> bool {
+        a.m.is_symmetric() && RowMajor::fits(a.m) && ContactColumns::fits(a.h)
+    }
+
+    /// `y += H t` (products outside the solve, with its storage of H and its threads).
+    pub fn h_mul_add(&mut self, t: &[f64], y: &mut [f64]) {
+        self.h.mul_add(t, y, &self.workers);
+    }
+
+    /// `out = H^T x`.
+    pub fn h_t_mul(&self, x: &[f64], out: &mut [f64]) {
+        self.h.mul_t(x, out, &self.workers);
     }
 
     /// Conjugate-gradient iterations over every solve so far.
@@ -177,8 +177,7 @@ impl GramPcg {
     /// Takes new values of M, H and the active rows on the same patterns (no allocation);
     /// the next [`GramPcg::set_rho`] refactorizes the blocks.
     pub fn take_values(&mut self, Gram { m, h, active }: Gram) {
-        self.h_cols.take_values(h);
-        self.h_rows.take_values(h);
+        self.h.take_values(h);
         self.m_rows.take_values(m);
         self.mass.fill(0.0);
         self.gram.fill(0.0);
@@ -205,6 +204,7 @@ impl GramPcg {
             }
         }
         self.rho = f64::NAN;
+        self.recurrences_left = 0;
     }
 
     /// Where entry `(i, j)` of a block sits in the flat block storage, if both are in one.
@@ -247,36 +247,32 @@ impl GramPcg {
             }
         }
         self.rho = rho;
+        self.recurrences_left = 0;
         self.factorizations += 1;
         Ok(())
     }
 
     /// Threads for the products of systems with at least [`PARALLEL_MIN_ENTRIES`] entries in
-    /// `M` and `H` (below, starting them costs more than they save).
+    /// `M` and `H` (below, handing work to other threads costs more than it saves).
     pub fn set_threads(&mut self, threads: usize) {
-        self.threads = threads.max(1);
+        let big = self.h.entries() + self.m_rows.entries() >= PARALLEL_MIN_ENTRIES;
+        let threads = if big { threads.max(1) } else { 1 };
+        if threads != self.workers.count() {
+            self.workers = Workers::new(threads);
+        }
     }
 
-    /// `y = (M + rho H D H^T) x` at the rho of the last [`GramPcg::set_rho`]: `D H^T x` by
-    /// columns of H, then each `y_i` from row `i` of M and of H, both gathers, so that each
-    /// entry is summed in the same order whatever the threads.
+    /// `y = (M + rho H D H^T) x` at the rho of the last [`GramPcg::set_rho`]: `M x` by rows
+    /// of M, then `rho H D H^T x` in one pass over H. Each entry is summed in one order
+    /// whatever the threads.
     pub fn apply(&mut self, Gram { active, .. }: Gram, x: &[f64], y: &mut [f64]) {
-        let big = self.h_rows.entries() + self.m_rows.entries() >= PARALLEL_MIN_ENTRIES;
-        let threads = if big { self.threads } else { 1 };
-        let h_cols = &self.h_cols;
-        in_chunks(threads, &mut self.contact, |first, chunk| {
-            for (k, c) in chunk.iter_mut().enumerate() {
-                let j = first + k;
-                *c = active[j] * h_cols.row_dot(j, x);
-            }
-        });
-        let (m_rows, h_rows, rho, contact) = (&self.m_rows, &self.h_rows, self.rho, &self.contact);
-        in_chunks(threads, y, |first, chunk| {
+        let m_rows = &self.m_rows;
+        self.workers.fill(y, |first, chunk| {
             for (k, yi) in chunk.iter_mut().enumerate() {
-                let i = first + k;
-                *yi = m_rows.row_dot(i, x) + rho * h_rows.row_dot(i, contact);
+                *yi = m_rows.row_dot(first + k, x);
             }
         });
+        self.h.gram_add(x, active, self.rho, y, &self.workers);
     }
 
     /// `z = P^-1 r`, block by block.
@@ -284,10 +280,16 @@ impl GramPcg {
         for b in 0..self.start.len() - 1 {
             let idx = &self.index[self.start[b]..self.start[b + 1]];
             let inverse = &self.inverse[self.offset[b]..self.offset[b + 1]];
+            let (first, k) = (idx[0], idx.len());
+            if k == 6 && idx[5] == first + 5 {
+                // A rigid body's six consecutive velocities: a fixed-size product.
+                block_product::<6>(inverse, &r[first..first + 6], &mut z[first..first + 6]);
+                continue;
+            }
             for &i in idx {
                 z[i] = 0.0;
             }
-            for (column, &j) in inverse.chunks_exact(idx.len()).zip(idx) {
+            for (column, &j) in inverse.chunks_exact(k).zip(idx) {
                 let rj = r[j];
                 for (a, &i) in column.iter().zip(idx) {
                     z[i] += a * rj;
@@ -304,9 +306,18 @@ impl GramPcg {
         let mut z = std::mem::take(&mut self.z);
         let mut p = std::mem::take(&mut self.p);
         let mut q = std::mem::take(&mut self.q);
-        self.apply(a, x, &mut q);
-        for i in 0..r.len() {
-            r[i] = b[i] - q[i];
+        if self.recurrences_left > 0 && x == self.last_x.as_slice() {
+            // b - A x = (b - b_last) + (b_last - A x_last).
+            self.recurrences_left -= 1;
+            for i in 0..r.len() {
+                r[i] += b[i] - self.last_b[i];
+            }
+        } else {
+            self.recurrences_left = PCG_TRUE_RESIDUAL_EVERY;
+            self.apply(a, x, &mut q);
+            for i in 0..r.len() {
+                r[i] = b[i] - q[i];
+            }
         }
         let mut out = PcgOutcome {
             iterations: 0,
@@ -347,8 +358,28 @@ impl GramPcg {
         }
         out.converged = out.residual <= tol;
         self.iterations += out.iterations;
+        self.last_b.copy_from_slice(b);
+        self.last_x.copy_from_slice(x);
+        if !out.residual.is_finite() {
+            self.recurrences_left = 0;
+        }
         (self.r, self.z, self.p, self.q) = (r, z, p, q);
         out
+    }
+}
+
+/// `z = A r` for a dense column-major `K x K` block `A`.
+fn block_product<const K: usize>(a: &[f64], r: &[f64], z: &mut [f64]) {
+    let (a, r, z): (&[f64], &[f64; K], &mut [f64; K]) = (
+        &a[..K * K],
+        r.try_into().expect("K entries"),
+        z.try_into().expect("K entries"),
+    );
+    *z = [0.0; K];
+    for j in 0..K {
+        for i in 0..K {
+            z[i] += a[j * K + i] * r[j];
+        }
     }
 }
 

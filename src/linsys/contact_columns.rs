@@ -1,0 +1,313 @@
+//! H stored contact by contact, for the matrix-free products. The three columns of a
+//! contact share one list of velocity rows (the union of their patterns, a missing entry
+//! stored as a zero), so that each index read and each velocity gathered serves three
+//! values: about half the memory traffic of H by rows and by columns.
+//!
+//! `H^T x` is a gather per contact. `H t` and the fused `H D H^T x` scatter into the
+//! velocities in a fixed split of the contacts into chunks, each chunk into its own buffer
+//! over the rows it touches, the buffers then added in chunk order: each entry is summed in
+//! one order whatever the number of threads that run the chunks.
+
+use super::workers::Workers;
+use crate::csc::CscMatrix;
+use crate::tuning::{PARALLEL_MIN_ENTRIES, PRODUCT_CHUNKS};
+use std::ops::Range;
+
+/// A run of contacts, the velocity rows they touch and its scatter buffer over those rows
+/// (unused when there is one chunk: it scatters into the output itself).
+struct Chunk {
+    contacts: Range<usize>,
+    rows: Range<usize>,
+    buffer: Vec<f64>,
+}
+
+/// The contact Jacobian `H` (velocities x 3 contacts), contact by contact.
+pub(crate) struct ContactColumns {
+    /// Contact `c`'s rows: `rows[start[c]..start[c + 1]]`, ascending.
+    start: Vec<usize>,
+    rows: Vec<u32>,
+    /// `values[3 k + d]`: H at row `rows[k]` and column `3 c + d`.
+    values: Vec<f64>,
+    /// Each stored entry of H: (its slot in `values`, its position in H's values).
+    source: Vec<(usize, usize)>,
+    chunks: Vec<Chunk>,
+}
+
+impl ContactColumns {
+    /// Whether `h` can be stored so: three columns per contact, 32-bit row indices.
+    pub fn fits(h: &CscMatrix) -> bool {
+        h.ncols() % 3 == 0 && h.nrows() <= u32::MAX as usize
+    }
+
+    /// The contacts of `h` (which [`ContactColumns::fits`]).
+    pub fn new(h: &CscMatrix) -> Self {
+        let contacts = h.ncols() / 3;
+        let mut start = Vec::with_capacity(contacts + 1);
+        start.push(0);
+        let mut rows: Vec<u32> = Vec::with_capacity(h.nnz());
+        let mut source = Vec::with_capacity(h.nnz());
+        let mut union = Vec::new();
+        for c in 0..contacts {
+            union.clear();
+            for j in 3 * c..3 * c + 3 {
+                union.extend(h.col(j).map(|(i, _)| i));
+            }
+            union.sort_unstable();
+            union.dedup();
+            let first = rows.len();
+            rows.extend(union.iter().map(|&i| i as u32));
+            for d in 0..3 {
+                let j = 3 * c + d;
+                let range = h.colptr()[j]..h.colptr()[j + 1];
+                for (k, &i) in range.clone().zip(&h.rowind()[range]) {
+                    let at = first + union.binary_search(&i).expect("in the union");
+                    source.push((3 * at + d, k));
+                }
+            }
+            start.push(rows.len());
+        }
+        let mut columns = Self {
+            values: vec![0.0; 3 * rows.len()],
+            chunks: chunks(&start, &rows, h.nnz()),
+            start,
+            rows,
+            source,
+        };
+        columns.take_values(h);
+        columns
+    }
+
+    /// Takes the values of `h` (the matrix it was made from, or one with its pattern).
+    pub fn take_values(&mut self, h: &CscMatrix) {
+        for &(at, k) in &self.source {
+            self.values[at] = h.values()[k];
+        }
+    }
+
+    /// Stored entries of H.
+    pub fn entries(&self) -> usize {
+        self.source.len()
+    }
+
+    /// `(H^T x)` for contact `c`, in two running sums per column (one would wait on each
+    /// addition: a contact's dozen rows are then latency-bound); the order is fixed.
+    #[inline]
+    fn gather(&self, c: usize, x: &[f64]) -> [f64; 3] {
+        let range = self.start[c]..self.start[c + 1];
+        let rows = &self.rows[range.clone()];
+        let values = &self.values[3 * range.start..3 * range.end];
+        let (mut even, mut odd) = ([0.0; 3], [0.0; 3]);
+        let (pairs, vpairs) = (rows.chunks_exact(2), values.chunks_exact(6));
+        let (last, vlast) = (pairs.remainder(), vpairs.remainder());
+        for (i, v) in pairs.zip(vpairs) {
+            let (xa, xb) = (x[i[0] as usize], x[i[1] as usize]);
+            for d in 0..3 {
+                even[d] += v[d] * xa;
+                odd[d] += v[3 + d] * xb;
+            }
+        }
+        if let [i] = last {
+            let xi = x[*i as usize];
+            for d in 0..3 {
+                even[d] += vlast[d] * xi;
+            }
+        }
+        [even[0] + odd[0], even[1] + odd[1], even[2] + odd[2]]
+    }
+
+    /// `out = H^T x`, contact by contact (each entry is one gather, whatever the threads).
+    pub fn mul_t(&self, x: &[f64], out: &mut [f64], workers: &Workers) {
+        let per_part = (out.len() / 3).div_ceil(workers.count()).max(1);
+        workers.run(out.chunks_mut(3 * per_part).enumerate(), |(k, part)| {
+            for (c, t) in part.chunks_exact_mut(3).enumerate() {
+                t.copy_from_slice(&self.gather(k * per_part + c, x));
+            }
+        });
+    }
+
+    /// `y += H t`.
+    pub fn mul_add(&mut self, t: &[f64], y: &mut [f64], workers: &Workers) {
+        self.scatter(y, workers, |_, c| [t[3 * c], t[3 * c + 1], t[3 * c + 2]]);
+    }
+
+    /// `y += rho H D H^T x`, `D` the diagonal `active`, in one pass over H.
+    pub fn gram_add(
+        &mut self,
+        x: &[f64],
+        active: &[f64],
+        rho: f64,
+        y: &mut [f64],
+        workers: &Workers,
+    ) {
+        self.scatter(y, workers, |me, c| {
+            let t = me.gather(c, x);
+            let a = &active[3 * c..3 * c + 3];
+            [rho * a[0] * t[0], rho * a[1] * t[1], rho * a[2] * t[2]]
+        });
+    }
+
+    /// `y += sum_c H_c s(c)`, chunk by chunk.
+    fn scatter(
+        &mut self,
+        y: &mut [f64],
+        workers: &Workers,
+        s: impl Fn(&Self, usize) -> [f64; 3] + Sync,
+    ) {
+        let mut chunks = std::mem::take(&mut self.chunks);
+        if let [only] = chunks.as_slice() {
+            self.scatter_into(only.contacts.clone(), y, 0, &s);
+        } else {
+            let me = &*self;
+            workers.run(chunks.iter_mut(), |chunk| {
+                chunk.buffer.fill(0.0);
+                me.scatter_into(
+                    chunk.contacts.clone(),
+                    &mut chunk.buffer,
+                    chunk.rows.start,
+                    &s,
+                );
+            });
+            for chunk in &chunks {
+                for (yi, b) in y[chunk.rows.clone()].iter_mut().zip(&chunk.buffer) {
+                    *yi += b;
+                }
+            }
+        }
+        self.chunks = chunks;
+    }
+
+    /// `target[i - offset] += (H_c s(c))_i` over `contacts`.
+    fn scatter_into(
+        &self,
+        contacts: Range<usize>,
+        target: &mut [f64],
+        offset: usize,
+        s: &impl Fn(&Self, usize) -> [f64; 3],
+    ) {
+        for c in contacts {
+            let t = s(self, c);
+            if t == [0.0; 3] {
+                continue;
+            }
+            let range = self.start[c]..self.start[c + 1];
+            for (&i, v) in self.rows[range.clone()]
+                .iter()
+                .zip(self.values[3 * range.start..3 * range.end].chunks_exact(3))
+            {
+                target[i as usize - offset] += v[0] * t[0] + v[1] * t[1] + v[2] * t[2];
+            }
+        }
+    }
+}
+
+/// The fixed split of the contacts: [`PRODUCT_CHUNKS`] runs of about equal entries for a
+/// matrix worth threads, one run below.
+fn chunks(start: &[usize], rows: &[u32], entries: usize) -> Vec<Chunk> {
+    let contacts = start.len() - 1;
+    let count = if entries >= PARALLEL_MIN_ENTRIES {
+        PRODUCT_CHUNKS.min(contacts).max(1)
+    } else {
+        1
+    };
+    let mut out = Vec::with_capacity(count);
+    let mut first = 0;
+    for k in 1..=count {
+        // The first contact at or past k/count of the stored rows.
+        let goal = rows.len() * k / count;
+        let end = if k == count {
+            contacts
+        } else {
+            start.partition_point(|&s| s < goal).clamp(first, contacts)
+        };
+        let touched = &rows[start[first]..start[end]];
+        let lo = touched.iter().min().map_or(0, |&i| i as usize);
+        let hi = touched.iter().max().map_or(0, |&i| i as usize + 1);
+        out.push(Chunk {
+            contacts: first..end,
+            rows: lo..hi.max(lo),
+            buffer: if count > 1 {
+                vec![0.0; hi.max(lo) - lo]
+            } else {
+                Vec::new()
+            },
+        });
+        first = end;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Random-looking H with contacts whose columns have different patterns.
+    fn h(contacts: usize, n: usize) -> CscMatrix {
+        let mut triplets = Vec::new();
+        for c in 0..contacts {
+            let (a, b) = ((7 * c + 3) % n, (13 * c + 5) % n);
+            for d in 0..3 {
+                let j = 3 * c + d;
+                triplets.push((a, j, 1.0 + (j % 5) as f64 * 0.25));
+                if d != 1 {
+                    triplets.push((b, j, -0.5 - (j % 3) as f64));
+                }
+                if d == 2 && a != (a + 1) % n && b != (a + 1) % n {
+                    triplets.push(((a + 1) % n, j, 0.3));
+                }
+            }
+        }
+        CscMatrix::from_triplets("H", n, 3 * contacts, &triplets).unwrap()
+    }
+
+    fn close(a: &[f64], b: &[f64]) {
+        for (x, y) in a.iter().zip(b) {
+            assert!((x - y).abs() <= 1e-12 * y.abs().max(1.0), "{x} vs {y}");
+        }
+    }
+
+    /// Products against the compressed-column ones, with one chunk and with several, on
+    /// 1 and 3 threads (bitwise equal to each other).
+    #[test]
+    fn products_match_the_compressed_columns() {
+        for (contacts, n) in [(9, 11), (40_000, 5_000)] {
+            let h = h(contacts, n);
+            let x: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
+            let t: Vec<f64> = (0..3 * contacts)
+                .map(|j| ((j * 17) % 7) as f64 - 3.0)
+                .collect();
+            let active: Vec<f64> = (0..3 * contacts)
+                .map(|j| (j / 3 % 4 != 0) as u8 as f64)
+                .collect();
+            let mut columns = ContactColumns::new(&h);
+            assert_eq!(columns.chunks.len() > 1, h.nnz() >= PARALLEL_MIN_ENTRIES);
+
+            let mut reference = vec![0.0; 3 * contacts];
+            h.mul_t_vec(1.0, &x, 0.0, &mut reference);
+            let mut ht = vec![0.0; n];
+            h.mul_vec(1.0, &t, 0.0, &mut ht);
+            let dhx: Vec<f64> = reference
+                .iter()
+                .zip(&active)
+                .map(|(a, b)| 2.5 * a * b)
+                .collect();
+            let mut gram = vec![1.0; n];
+            h.mul_vec(1.0, &dhx, 1.0, &mut gram);
+
+            let as_bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let mut runs = Vec::new();
+            for workers in [Workers::serial(), Workers::new(3)] {
+                let mut out = vec![0.0; 3 * contacts];
+                columns.mul_t(&x, &mut out, &workers);
+                close(&out, &reference);
+                let mut y = vec![0.0; n];
+                columns.mul_add(&t, &mut y, &workers);
+                close(&y, &ht);
+                let mut g = vec![1.0; n];
+                columns.gram_add(&x, &active, 2.5, &mut g, &workers);
+                close(&g, &gram);
+                runs.push([as_bits(&out), as_bits(&y), as_bits(&g)]);
+            }
+            assert!(runs[0] == runs[1], "threads changed a bit");
+        }
+    }
+}

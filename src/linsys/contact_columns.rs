@@ -1,16 +1,19 @@
-//! H stored contact by contact, for the matrix-free products. The three columns of a
-//! contact share one list of velocity rows (the union of their patterns, a missing entry
-//! stored as a zero), so that each index read and each velocity gathered serves three
-//! values: about half the memory traffic of H by rows and by columns.
+//! H stored contact by contact, for the matrix-free products. Where the three columns of
+//! a contact have (nearly) one pattern, as a rigid body's contact rows do, they share one
+//! list of velocity rows (the union of their patterns, a missing entry stored as a zero),
+//! so that each index read and each velocity gathered serves three values. Where they do
+//! not (an axis-aligned lattice: one entry per body in each column), the union would
+//! store mostly zeros, and each column keeps its own rows.
 //!
-//! `H^T x` is a gather per contact. `H t` and the fused `H D H^T x` scatter into the
-//! velocities in a fixed split of the contacts into chunks, each chunk into its own buffer
-//! over the rows it touches, the buffers then added in chunk order: each entry is summed in
-//! one order whatever the number of threads that run the chunks.
+//! `H^T x` is a gather per contact. `H t` and the fused `H D H^T x` (one pass over H where
+//! products by columns and by rows read it twice) scatter into the velocities in a fixed
+//! split of the contacts into chunks, each chunk into its own buffer over the rows it
+//! touches, the buffers then added in chunk order: each entry is summed in one order
+//! whatever the number of threads that run the chunks.
 
 use super::workers::Workers;
 use crate::csc::CscMatrix;
-use crate::tuning::{PARALLEL_MIN_ENTRIES, PRODUCT_CHUNKS};
+use crate::tuning::{PARALLEL_MIN_ENTRIES, PRODUCT_CHUNKS, SHARED_ROWS_MAX_STORED};
 use std::ops::Range;
 
 /// A run of contacts, the velocity rows they touch and its scatter buffer over those rows
@@ -23,10 +26,12 @@ struct Chunk {
 
 /// The contact Jacobian `H` (velocities x 3 contacts), contact by contact.
 pub(crate) struct ContactColumns {
-    /// Contact `c`'s rows: `rows[start[c]..start[c + 1]]`, ascending.
+    /// Shared rows: contact `c`'s rows are `rows[start[c]..start[c + 1]]`, ascending, and
+    /// `values[3 k + d]` is H at row `rows[k]` and column `3 c + d`. Separate rows:
+    /// column `j`'s entries are `start[j]..start[j + 1]` of `rows` and `values`.
+    shared: bool,
     start: Vec<usize>,
     rows: Vec<u32>,
-    /// `values[3 k + d]`: H at row `rows[k]` and column `3 c + d`.
     values: Vec<f64>,
     /// Each stored entry of H: (its slot in `values`, its position in H's values).
     source: Vec<(usize, usize)>,
@@ -66,9 +71,21 @@ impl ContactColumns {
             }
             start.push(rows.len());
         }
+        let shared = 3 * rows.len() <= (SHARED_ROWS_MAX_STORED * h.nnz() as f64) as usize;
+        if !shared {
+            start = h.colptr().to_vec();
+            rows = h.rowind().iter().map(|&i| i as u32).collect();
+            source = (0..h.nnz()).map(|k| (k, k)).collect();
+        }
+        let contact_start: Vec<usize> = if shared {
+            start.clone()
+        } else {
+            start.iter().step_by(3).copied().collect()
+        };
         let mut columns = Self {
-            values: vec![0.0; 3 * rows.len()],
-            chunks: chunks(&start, &rows, h.nnz()),
+            values: vec![0.0; if shared { 3 * rows.len() } else { rows.len() }],
+            chunks: chunks(&contact_start, &rows, h.nnz()),
+            shared,
             start,
             rows,
             source,
@@ -89,10 +106,23 @@ impl ContactColumns {
         self.source.len()
     }
 
-    /// `(H^T x)` for contact `c`, in two running sums per column (one would wait on each
-    /// addition: a contact's dozen rows are then latency-bound); the order is fixed.
+    /// `(H^T x)` for contact `c`.
     #[inline]
     fn gather(&self, c: usize, x: &[f64]) -> [f64; 3] {
+        if !self.shared {
+            return std::array::from_fn(|d| {
+                let range = self.start[3 * c + d]..self.start[3 * c + d + 1];
+                let values = &self.values[range.clone()];
+                let rows = &self.rows[range];
+                values
+                    .iter()
+                    .zip(rows)
+                    .map(|(v, &i)| v * x[i as usize])
+                    .sum()
+            });
+        }
+        // Two running sums per column (one would wait on each addition: a contact's dozen
+        // rows are then latency-bound); the order is fixed.
         let range = self.start[c]..self.start[c + 1];
         let rows = &self.rows[range.clone()];
         let values = &self.values[3 * range.start..3 * range.end];
@@ -127,45 +157,67 @@ impl ContactColumns {
 
     /// `y += H t`.
     pub fn mul_add(&mut self, t: &[f64], y: &mut [f64], workers: &Workers) {
-        self.scatter(y, workers, |_, c| [t[3 * c], t[3 * c + 1], t[3 * c + 2]]);
+        let s = |_: &Self, c: usize| [t[3 * c], t[3 * c + 1], t[3 * c + 2]];
+        self.scatter(y, workers, |_, _| {}, s);
     }
 
-    /// `y += rho H D H^T x`, `D` the diagonal `active`, in one pass over H.
-    pub fn gram_add(
+    /// `y = base + rho H D H^T x`, `D` the diagonal `active`, in one pass over H, where
+    /// `base(first, part)` writes its part of `y` from `first` on (run beside the
+    /// scatter).
+    pub fn gram(
         &mut self,
         x: &[f64],
         active: &[f64],
         rho: f64,
         y: &mut [f64],
         workers: &Workers,
+        base: impl Fn(usize, &mut [f64]) + Sync,
     ) {
-        self.scatter(y, workers, |me, c| {
+        self.scatter(y, workers, base, |me, c| {
             let t = me.gather(c, x);
             let a = &active[3 * c..3 * c + 3];
             [rho * a[0] * t[0], rho * a[1] * t[1], rho * a[2] * t[2]]
         });
     }
 
-    /// `y += sum_c H_c s(c)`, chunk by chunk.
+    /// `y = base(y) + sum_c H_c s(c)`, chunk by chunk: with several chunks, each thread
+    /// writes its share of `base` into `y` and scatters its chunks into their buffers,
+    /// which are then added in chunk order.
     fn scatter(
         &mut self,
         y: &mut [f64],
         workers: &Workers,
+        base: impl Fn(usize, &mut [f64]) + Sync,
         s: impl Fn(&Self, usize) -> [f64; 3] + Sync,
     ) {
         let mut chunks = std::mem::take(&mut self.chunks);
         if let [only] = chunks.as_slice() {
+            base(0, y);
             self.scatter_into(only.contacts.clone(), y, 0, &s);
         } else {
             let me = &*self;
-            workers.run(chunks.iter_mut(), |chunk| {
-                chunk.buffer.fill(0.0);
-                me.scatter_into(
-                    chunk.contacts.clone(),
-                    &mut chunk.buffer,
-                    chunk.rows.start,
-                    &s,
-                );
+            let threads = workers.count();
+            let (rows, groups) = (
+                y.len().div_ceil(threads).max(1),
+                chunks.len().div_ceil(threads),
+            );
+            // Part k: the k-th share of y and of the chunks (either may be empty).
+            let mut shares = y.chunks_mut(rows);
+            let mut runs = chunks.chunks_mut(groups);
+            let parts = (0..threads).map(|k| (k, shares.next(), runs.next()));
+            workers.run(parts, |(k, share, run)| {
+                if let Some(share) = share {
+                    base(k * rows, share);
+                }
+                for chunk in run.into_iter().flatten() {
+                    chunk.buffer.fill(0.0);
+                    me.scatter_into(
+                        chunk.contacts.clone(),
+                        &mut chunk.buffer,
+                        chunk.rows.start,
+                        &s,
+                    );
+                }
             });
             for chunk in &chunks {
                 for (yi, b) in y[chunk.rows.clone()].iter_mut().zip(&chunk.buffer) {
@@ -189,6 +241,15 @@ impl ContactColumns {
             if t == [0.0; 3] {
                 continue;
             }
+            if !self.shared {
+                for (d, td) in t.iter().enumerate() {
+                    let range = self.start[3 * c + d]..self.start[3 * c + d + 1];
+                    for (&i, v) in self.rows[range.clone()].iter().zip(&self.values[range]) {
+                        target[i as usize - offset] += v * td;
+                    }
+                }
+                continue;
+            }
             let range = self.start[c]..self.start[c + 1];
             for (&i, v) in self.rows[range.clone()]
                 .iter()
@@ -200,8 +261,8 @@ impl ContactColumns {
     }
 }
 
-/// The fixed split of the contacts: [`PRODUCT_CHUNKS`] runs of about equal entries for a
-/// matrix worth threads, one run below.
+/// The fixed split of the contacts (contact `c`'s entries in `rows` from `start[c]`):
+/// [`PRODUCT_CHUNKS`] runs of about equal entries for a matrix worth threads, one run below.
 fn chunks(start: &[usize], rows: &[u32], entries: usize) -> Vec<Chunk> {
     let contacts = start.len() - 1;
     let count = if entries >= PARALLEL_MIN_ENTRIES {
@@ -240,19 +301,25 @@ fn chunks(start: &[usize], rows: &[u32], entries: usize) -> Vec<Chunk> {
 mod tests {
     use super::*;
 
-    /// Random-looking H with contacts whose columns have different patterns.
-    fn h(contacts: usize, n: usize) -> CscMatrix {
+    /// Random-looking H: with `aligned`, each column of a contact holds one entry per body
+    /// on its own row (an axis-aligned lattice's pattern); without, the columns share most
+    /// rows.
+    fn h(contacts: usize, n: usize, aligned: bool) -> CscMatrix {
         let mut triplets = Vec::new();
         for c in 0..contacts {
-            let (a, b) = ((7 * c + 3) % n, (13 * c + 5) % n);
+            let (a, b) = ((7 * c + 3) % (n / 3), (13 * c + 5) % (n / 3));
             for d in 0..3 {
                 let j = 3 * c + d;
-                triplets.push((a, j, 1.0 + (j % 5) as f64 * 0.25));
-                if d != 1 {
-                    triplets.push((b, j, -0.5 - (j % 3) as f64));
+                if aligned {
+                    triplets.push((3 * a + d, j, 1.0 + (j % 5) as f64 * 0.25));
+                    triplets.push((3 * b + d, j, -0.5 - (j % 3) as f64));
+                    continue;
                 }
-                if d == 2 && a != (a + 1) % n && b != (a + 1) % n {
-                    triplets.push(((a + 1) % n, j, 0.3));
+                for r in 0..3 {
+                    triplets.push((3 * a + r, j, 1.0 + ((j + r) % 5) as f64 * 0.25));
+                    if d != 1 || r != 2 {
+                        triplets.push((3 * b + r, j, -0.5 - ((j + r) % 3) as f64));
+                    }
                 }
             }
         }
@@ -265,12 +332,18 @@ mod tests {
         }
     }
 
-    /// Products against the compressed-column ones, with one chunk and with several, on
-    /// 1 and 3 threads (bitwise equal to each other).
+    /// Products against the compressed-column ones, in both layouts, with one chunk and
+    /// with several, on 1 and 3 threads (bitwise equal to each other).
     #[test]
     fn products_match_the_compressed_columns() {
-        for (contacts, n) in [(9, 11), (40_000, 5_000)] {
-            let h = h(contacts, n);
+        let cases = [
+            (9, 12, false),
+            (9, 12, true),
+            (40_000, 6_000, false),
+            (40_000, 6_000, true),
+        ];
+        for (contacts, n, aligned) in cases {
+            let h = h(contacts, n, aligned);
             let x: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
             let t: Vec<f64> = (0..3 * contacts)
                 .map(|j| ((j * 17) % 7) as f64 - 3.0)
@@ -280,6 +353,7 @@ mod tests {
                 .collect();
             let mut columns = ContactColumns::new(&h);
             assert_eq!(columns.chunks.len() > 1, h.nnz() >= PARALLEL_MIN_ENTRIES);
+            assert_eq!(columns.shared, !aligned);
 
             let mut reference = vec![0.0; 3 * contacts];
             h.mul_t_vec(1.0, &x, 0.0, &mut reference);
@@ -302,8 +376,8 @@ mod tests {
                 let mut y = vec![0.0; n];
                 columns.mul_add(&t, &mut y, &workers);
                 close(&y, &ht);
-                let mut g = vec![1.0; n];
-                columns.gram_add(&x, &active, 2.5, &mut g, &workers);
+                let mut g = vec![f64::NAN; n];
+                columns.gram(&x, &active, 2.5, &mut g, &workers, |_, part| part.fill(1.0));
                 close(&g, &gram);
                 runs.push([as_bits(&out), as_bits(&y), as_bits(&g)]);
             }

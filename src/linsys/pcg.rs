@@ -15,6 +15,7 @@ use crate::csc::{dot, norm2, CscMatrix, RowMajor};
 use crate::islands::DisjointSets;
 use crate::tuning::{PARALLEL_MIN_ENTRIES, PCG_TRUE_RESIDUAL_EVERY};
 use crate::types::Error;
+use std::ops::Range;
 use std::time::Instant;
 
 /// Largest diagonal block the preconditioner factorizes (a rigid body has 6 velocities; a
@@ -70,6 +71,8 @@ pub struct GramPcg {
     offset: Vec<usize>,
     /// Block and position in it of each velocity.
     block_of: Vec<usize>,
+    /// The blocks hold the velocities in order (`index` is `0..n`).
+    in_order: bool,
     position: Vec<usize>,
     /// Column-major `(M_BB + M_BB^T) / 2`, `(H D H^T)_BB` and the inverse of
     /// `M_BB + rho (H D H^T)_BB`, block after block (an inverse, because applying it is one
@@ -121,7 +124,9 @@ impl GramPcg {
             }
         }
         offset.push(size);
+        let in_order = index.iter().enumerate().all(|(k, &i)| k == i);
         let mut pcg = Self {
+            in_order,
             index,
             start,
             offset,
@@ -263,36 +268,65 @@ impl GramPcg {
     }
 
     /// `y = (M + rho H D H^T) x` at the rho of the last [`GramPcg::set_rho`]: `M x` by rows
-    /// of M, then `rho H D H^T x` in one pass over H. Each entry is summed in one order
+    /// of M beside `rho H D H^T x` in one pass over H. Each entry is summed in one order
     /// whatever the threads.
     pub fn apply(&mut self, Gram { active, .. }: Gram, x: &[f64], y: &mut [f64]) {
         let m_rows = &self.m_rows;
-        self.workers.fill(y, |first, chunk| {
-            for (k, yi) in chunk.iter_mut().enumerate() {
+        let mass = |first: usize, part: &mut [f64]| {
+            for (k, yi) in part.iter_mut().enumerate() {
                 *yi = m_rows.row_dot(first + k, x);
             }
-        });
-        self.h.gram_add(x, active, self.rho, y, &self.workers);
+        };
+        self.h.gram(x, active, self.rho, y, &self.workers, mass);
     }
 
-    /// `z = P^-1 r`, block by block.
+    /// `z = P^-1 r`, block by block (on the threads when the blocks are the velocities in
+    /// order, so that each thread writes one slice of `z`).
     fn precondition(&self, r: &[f64], z: &mut [f64]) {
-        for b in 0..self.start.len() - 1 {
+        let blocks = self.start.len() - 1;
+        let threads = self.workers.count();
+        if !self.in_order || threads == 1 {
+            return self.precondition_blocks(0..blocks, r, z);
+        }
+        let per = blocks.div_ceil(threads);
+        let mut parts = Vec::with_capacity(threads);
+        let mut rest = z;
+        for first in (0..blocks).step_by(per) {
+            let range = first..(first + per).min(blocks);
+            let len = self.start[range.end] - self.start[range.start];
+            let (part, tail) = std::mem::take(&mut rest).split_at_mut(len);
+            rest = tail;
+            parts.push((range, part));
+        }
+        self.workers.run(parts, |(range, part)| {
+            self.precondition_blocks(range, r, part)
+        });
+    }
+
+    /// `z = P^-1 r` over `blocks`, `z` starting at the first block's first velocity.
+    fn precondition_blocks(&self, blocks: Range<usize>, r: &[f64], z: &mut [f64]) {
+        let shift = if self.in_order {
+            self.start[blocks.start]
+        } else {
+            0
+        };
+        for b in blocks {
             let idx = &self.index[self.start[b]..self.start[b + 1]];
             let inverse = &self.inverse[self.offset[b]..self.offset[b + 1]];
             let (first, k) = (idx[0], idx.len());
             if k == 6 && idx[5] == first + 5 {
                 // A rigid body's six consecutive velocities: a fixed-size product.
-                block_product::<6>(inverse, &r[first..first + 6], &mut z[first..first + 6]);
+                let at = first - shift;
+                block_product::<6>(inverse, &r[first..first + 6], &mut z[at..at + 6]);
                 continue;
             }
             for &i in idx {
-                z[i] = 0.0;
+                z[i - shift] = 0.0;
             }
             for (column, &j) in inverse.chunks_exact(k).zip(idx) {
                 let rj = r[j];
                 for (a, &i) in column.iter().zip(idx) {
-                    z[i] += a * rj;
+                    z[i - shift] += a * rj;
                 }
             }
         }

@@ -2,7 +2,7 @@
 //! starting threads for every product (a few per conjugate-gradient iteration, each a
 //! fraction of a millisecond of work) costs about what they save.
 
-/// A pool of `count` threads, or none for one.
+/// The calling thread and a pool of `count - 1` more, or the calling thread alone.
 pub(crate) struct Workers {
     pool: Option<rayon::ThreadPool>,
 }
@@ -13,12 +13,12 @@ impl Workers {
         Self { pool: None }
     }
 
-    /// A pool of `threads` (serial for one, or when the system refuses threads).
+    /// `threads` in all (serial for one, or when the system refuses threads).
     pub fn new(threads: usize) -> Self {
         let pool = (threads > 1)
             .then(|| {
                 rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
+                    .num_threads(threads - 1)
                     .build()
                     .ok()
             })
@@ -26,31 +26,30 @@ impl Workers {
         Self { pool }
     }
 
-    /// Threads the parts may run on.
+    /// Threads the parts may run on, the calling one included.
     pub fn count(&self) -> usize {
-        self.pool.as_ref().map_or(1, |p| p.current_num_threads())
+        self.pool
+            .as_ref()
+            .map_or(1, |p| p.current_num_threads() + 1)
     }
 
-    /// Runs `work` on each part, side by side when there is a pool, and returns when all
-    /// are done. Which thread runs a part never changes what the part computes.
+    /// Runs `work` on each part, the first on the calling thread and the others on the
+    /// pool, and returns when all are done (give about [`Workers::count`] parts). Which
+    /// thread runs a part never changes what the part computes.
     pub fn run<T: Send>(&self, parts: impl IntoIterator<Item = T>, work: impl Fn(T) + Sync) {
+        let mut parts = parts.into_iter();
         match &self.pool {
-            None => parts.into_iter().for_each(work),
+            None => parts.for_each(work),
             Some(pool) => pool.in_place_scope(|scope| {
                 let work = &work;
+                let first = parts.next();
                 for part in parts {
                     scope.spawn(move |_| work(part));
                 }
+                if let Some(part) = first {
+                    work(part);
+                }
             }),
         }
-    }
-
-    /// Runs `fill(first, chunk)` on contiguous chunks of `out`, one per thread (`first`:
-    /// the chunk's offset in `out`).
-    pub fn fill(&self, out: &mut [f64], fill: impl Fn(usize, &mut [f64]) + Sync) {
-        let len = out.len().div_ceil(self.count()).max(1);
-        self.run(out.chunks_mut(len).enumerate(), |(k, chunk)| {
-            fill(k * len, chunk)
-        });
     }
 }

@@ -24,6 +24,45 @@ struct Chunk {
     buffer: Vec<f64>,
 }
 
+/// The rows each contact's three columns of H touch together: contact `c`'s are
+/// `rows[start[c]..start[c + 1]]`, ascending, and H's `k`-th stored entry (row `rows[a]`,
+/// column `3 c + d`) has the slot `slot[k] = 3 a + d` in a row-major `rows x 3` layout of
+/// the contacts' blocks.
+pub(crate) struct ContactRows {
+    pub start: Vec<usize>,
+    pub rows: Vec<usize>,
+    pub slot: Vec<usize>,
+}
+
+impl ContactRows {
+    /// The contacts of `h` (three columns each).
+    pub fn of(h: &CscMatrix) -> Self {
+        let contacts = h.ncols() / 3;
+        let mut start = Vec::with_capacity(contacts + 1);
+        start.push(0);
+        let mut rows = Vec::with_capacity(h.nnz());
+        let mut slot = Vec::with_capacity(h.nnz());
+        let mut union = Vec::new();
+        for c in 0..contacts {
+            union.clear();
+            for j in 3 * c..3 * c + 3 {
+                union.extend(h.col(j).map(|(i, _)| i));
+            }
+            union.sort_unstable();
+            union.dedup();
+            for j in 3 * c..3 * c + 3 {
+                for (i, _) in h.col(j) {
+                    let at = rows.len() + union.binary_search(&i).expect("in the union");
+                    slot.push(3 * at + j % 3);
+                }
+            }
+            rows.extend_from_slice(&union);
+            start.push(rows.len());
+        }
+        Self { start, rows, slot }
+    }
+}
+
 /// The contact Jacobian `H` (velocities x 3 contacts), contact by contact.
 pub(crate) struct ContactColumns {
     /// Shared rows: contact `c`'s rows are `rows[start[c]..start[c + 1]]`, ascending, and
@@ -46,31 +85,13 @@ impl ContactColumns {
 
     /// The contacts of `h` (which [`ContactColumns::fits`]).
     pub fn new(h: &CscMatrix) -> Self {
-        let contacts = h.ncols() / 3;
-        let mut start = Vec::with_capacity(contacts + 1);
-        start.push(0);
-        let mut rows: Vec<u32> = Vec::with_capacity(h.nnz());
-        let mut source = Vec::with_capacity(h.nnz());
-        let mut union = Vec::new();
-        for c in 0..contacts {
-            union.clear();
-            for j in 3 * c..3 * c + 3 {
-                union.extend(h.col(j).map(|(i, _)| i));
-            }
-            union.sort_unstable();
-            union.dedup();
-            let first = rows.len();
-            rows.extend(union.iter().map(|&i| i as u32));
-            for d in 0..3 {
-                let j = 3 * c + d;
-                let range = h.colptr()[j]..h.colptr()[j + 1];
-                for (k, &i) in range.clone().zip(&h.rowind()[range]) {
-                    let at = first + union.binary_search(&i).expect("in the union");
-                    source.push((3 * at + d, k));
-                }
-            }
-            start.push(rows.len());
-        }
+        let ContactRows {
+            mut start,
+            rows,
+            slot,
+        } = ContactRows::of(h);
+        let mut rows: Vec<u32> = rows.into_iter().map(|i| i as u32).collect();
+        let mut source: Vec<(usize, usize)> = slot.into_iter().zip(0..).collect();
         let shared = 3 * rows.len() <= (SHARED_ROWS_MAX_STORED * h.nnz() as f64) as usize;
         if !shared {
             start = h.colptr().to_vec();

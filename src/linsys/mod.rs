@@ -13,6 +13,7 @@ mod pcg;
 mod sparse_factor;
 mod workers;
 
+pub(crate) use contact_columns::ContactRows;
 use dense::DenseFactor;
 pub use dense::DENSE_MAX;
 pub use gram_product::GramProduct;

@@ -289,15 +289,14 @@ impl GramPcg {
             return self.precondition_blocks(0..blocks, r, z);
         }
         let per = blocks.div_ceil(threads);
-        let mut parts = Vec::with_capacity(threads);
-        let mut rest = z;
-        for first in (0..blocks).step_by(per) {
+        let start = &self.start;
+        let parts = (0..blocks).step_by(per).scan(z, |rest, first| {
             let range = first..(first + per).min(blocks);
-            let len = self.start[range.end] - self.start[range.start];
-            let (part, tail) = std::mem::take(&mut rest).split_at_mut(len);
-            rest = tail;
-            parts.push((range, part));
-        }
+            let len = start[range.end] - start[range.start];
+            let (part, tail) = std::mem::take(rest).split_at_mut(len);
+            *rest = tail;
+            Some((range, part))
+        });
         self.workers.run(parts, |(range, part)| {
             self.precondition_blocks(range, r, part)
         });

@@ -22,6 +22,7 @@
 use super::sparse::{Pattern, SparseLu};
 use super::Mat3;
 use crate::csc::CscMatrix;
+use crate::linsys::ContactRows;
 use crate::tuning::{REDUCED_REFINEMENTS, REDUCED_RESIDUAL};
 use crate::types::Error;
 
@@ -74,19 +75,11 @@ impl ReducedSystem {
         let n = m.nrows();
         let p = g.ncols();
         let nc = h.ncols() / 3;
-        let mut rows = Vec::new();
-        let mut row_ptr = Vec::with_capacity(nc + 1);
-        row_ptr.push(0);
-        for i in 0..nc {
-            let start = rows.len();
-            for c in 3 * i..3 * i + 3 {
-                rows.extend(h.col(c).map(|(j, _)| j));
-            }
-            rows[start..].sort_unstable();
-            let k = start + dedup_in_place(&mut rows[start..]);
-            rows.truncate(k);
-            row_ptr.push(rows.len());
-        }
+        let ContactRows {
+            start: row_ptr,
+            rows,
+            slot: h_pos,
+        } = ContactRows::of(h);
         let contact_rows = |i: usize| &rows[row_ptr[i]..row_ptr[i + 1]];
         let mut cols: Vec<Vec<usize>> = vec![Vec::new(); n + p];
         for c in 0..m.ncols() {
@@ -106,16 +99,6 @@ impl ReducedSystem {
             }
         }
         let pat = Pattern::from_columns(n + p, cols);
-        let mut h_pos = Vec::with_capacity(h.nnz());
-        for c in 0..h.ncols() {
-            let (i, r) = (c / 3, contact_rows(c / 3));
-            for (j, _) in h.col(c) {
-                let local = r
-                    .binary_search(&j)
-                    .expect("a row of the contact's own column");
-                h_pos.push(3 * (row_ptr[i] + local) + c % 3);
-            }
-        }
         let mut dest = Vec::new();
         let mut dest_ptr = Vec::with_capacity(nc + 1);
         dest_ptr.push(0);
@@ -304,18 +287,6 @@ impl ReducedSystem {
             }
         }
     }
-}
-
-/// Moves the distinct values of a sorted slice to its front; returns their count.
-fn dedup_in_place(x: &mut [usize]) -> usize {
-    let mut k = 0;
-    for i in 0..x.len() {
-        if k == 0 || x[i] != x[k - 1] {
-            x[k] = x[i];
-            k += 1;
-        }
-    }
-    k
 }
 
 fn mul3(a: &Mat3, b: &Mat3) -> Mat3 {

@@ -54,10 +54,64 @@ fn sorted_by_column<T: Copy>(
         }
         out
     }
+    // Most input is a few runs already in order (M's columns, the product's, the
+    // diagonal): merged without sorting.
+    let runs = run_starts(&all);
+    if runs.len() <= MERGED_RUNS_MAX {
+        return merged(&all, &runs);
+    }
     let identity: Vec<usize> = (0..all.len()).collect();
     let by_row = counting_pass(&identity, |e| all[e].0, n);
     let by_column = counting_pass(&by_row, |e| all[e].1, n);
     by_column.into_iter().map(|e| all[e]).collect()
+}
+
+/// Inputs of at most this many ordered runs are merged instead of sorted.
+const MERGED_RUNS_MAX: usize = 4;
+
+/// The (column, row) key of an entry.
+fn key<T>(e: &(usize, usize, f64, f64, T)) -> (usize, usize) {
+    (e.1, e.0)
+}
+
+/// Where each maximal run of entries in non-decreasing (column, row) order starts, up to
+/// one past [`MERGED_RUNS_MAX`] runs.
+fn run_starts<T>(all: &[(usize, usize, f64, f64, T)]) -> Vec<usize> {
+    let mut starts = vec![0];
+    for (k, w) in all.windows(2).enumerate() {
+        if key(&w[1]) < key(&w[0]) {
+            starts.push(k + 1);
+            if starts.len() > MERGED_RUNS_MAX {
+                break;
+            }
+        }
+    }
+    starts
+}
+
+/// The ordered runs starting at `starts` merged into one, equal keys in input order (the
+/// earlier run first), as the stable sort would order them.
+fn merged<T: Copy>(
+    all: &[(usize, usize, f64, f64, T)],
+    starts: &[usize],
+) -> Vec<(usize, usize, f64, f64, T)> {
+    let ends: Vec<usize> = starts[1..].iter().copied().chain([all.len()]).collect();
+    let mut next = starts.to_vec();
+    let mut out = Vec::with_capacity(all.len());
+    loop {
+        // The run whose next entry has the smallest key; ties go to the earliest run.
+        let mut best: Option<usize> = None;
+        for r in 0..next.len() {
+            if next[r] < ends[r] && best.is_none_or(|b| key(&all[next[r]]) < key(&all[next[b]])) {
+                best = Some(r);
+            }
+        }
+        let Some(r) = best else {
+            return out;
+        };
+        out.push(all[next[r]]);
+        next[r] += 1;
+    }
 }
 
 impl ParamMatrix {
@@ -72,12 +126,14 @@ impl ParamMatrix {
     ) -> (Self, Assembly) {
         // (row, col, base value, slope value, source): source t < n_base is base triplet t,
         // n_base + t is slope triplet t, and DROPPED the diagonal entries added below.
-        let mut all: Vec<(usize, usize, f64, f64, usize)> = base
-            .into_iter()
-            .map(|(i, j, v)| (i, j, v, 0.0))
-            .enumerate()
-            .map(|(t, (i, j, b, s))| (i, j, b, s, t))
-            .collect();
+        let (base, slope) = (base.into_iter(), slope.into_iter());
+        let mut all: Vec<(usize, usize, f64, f64, usize)> =
+            Vec::with_capacity(base.size_hint().0 + slope.size_hint().0 + n);
+        all.extend(
+            base.map(|(i, j, v)| (i, j, v, 0.0))
+                .enumerate()
+                .map(|(t, (i, j, b, s))| (i, j, b, s, t)),
+        );
         let n_base = all.len();
         all.extend(
             slope
@@ -95,7 +151,12 @@ impl ParamMatrix {
         all.extend((0..n).map(|i| (i, i, 0.0, 0.0, DROPPED)));
         let all = sorted_by_column(all, n);
         let mut colptr = vec![0usize; n + 1];
-        let (mut rowind, mut b, mut s) = (Vec::new(), Vec::new(), Vec::<f64>::new());
+        let stored = all.len();
+        let (mut rowind, mut b, mut s) = (
+            Vec::with_capacity(stored),
+            Vec::with_capacity(stored),
+            Vec::<f64>::with_capacity(stored),
+        );
         let mut last = None;
         for (i, j, vb, vs, source) in all {
             if last != Some((i, j)) {
@@ -180,16 +241,63 @@ impl ParamMatrix {
 }
 
 /// Triplets of a matrix (both triangles as stored).
-pub fn triplets(a: &CscMatrix) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
-    (0..a.ncols()).flat_map(move |j| a.col(j).map(move |(i, v)| (i, j, v)))
+pub fn triplets(a: &CscMatrix) -> Triplets<'_> {
+    Triplets::new(a.colptr(), a.rowind(), a.values())
 }
+
+/// The entries of compressed columns as (row, column, value), by column, their number
+/// known ahead (so that what collects them allocates once).
+#[derive(Debug, Clone)]
+pub struct Triplets<'a> {
+    colptr: &'a [usize],
+    rowind: &'a [usize],
+    values: &'a [f64],
+    column: usize,
+    next: usize,
+}
+
+impl<'a> Triplets<'a> {
+    /// The entries of the compressed columns `colptr`, `rowind`, `values`.
+    pub fn new(colptr: &'a [usize], rowind: &'a [usize], values: &'a [f64]) -> Self {
+        Self {
+            colptr,
+            rowind,
+            values,
+            column: 0,
+            next: 0,
+        }
+    }
+}
+
+impl Iterator for Triplets<'_> {
+    type Item = (usize, usize, f64);
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.next >= self.values.len() {
+            return None;
+        }
+        while self.colptr[self.column + 1] <= self.next {
+            self.column += 1;
+        }
+        let k = self.next;
+        self.next += 1;
+        Some((self.rowind[k], self.column, self.values[k]))
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let left = self.values.len() - self.next;
+        (left, Some(left))
+    }
+}
+
+impl ExactSizeIterator for Triplets<'_> {}
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// The counting passes order entries exactly as a stable comparison sort by
-    /// (column, row) does, duplicates included.
+    /// The counting passes, and the merge of ordered runs, order entries exactly as a
+    /// stable comparison sort by (column, row) does, duplicates included.
     #[test]
     fn counting_sort_matches_a_stable_sort() {
         let n = 17;
@@ -205,6 +313,17 @@ mod tests {
             .collect();
         let mut expected = all.clone();
         expected.sort_by_key(|e| (e.1, e.0));
-        assert_eq!(sorted_by_column(all, n), expected);
+        assert_eq!(sorted_by_column(all.clone(), n), expected);
+        // A few ordered runs (the merged path), duplicates across and within runs.
+        let mut runs = Vec::new();
+        for chunk in all.chunks(700) {
+            let mut run = chunk.to_vec();
+            run.sort_by_key(|e| (e.1, e.0));
+            runs.extend(run);
+        }
+        assert!(run_starts(&runs).len() <= MERGED_RUNS_MAX);
+        let mut expected = runs.clone();
+        expected.sort_by_key(|e| (e.1, e.0));
+        assert_eq!(sorted_by_column(runs, n), expected);
     }
 }

@@ -13,7 +13,9 @@ use crate::certificate::run_off;
 use crate::cone::{get3, project_dual_cone, set3};
 use crate::csc::{norm2, CscMatrix, RowMajor};
 use crate::linsys::param_matrix::{triplets, Assembly};
-use crate::linsys::{Factor, FactorKind, Gram, GramPcg, GramProduct, ParamMatrix, PcgStop};
+use crate::linsys::{
+    BlockDiagonal, Factor, FactorKind, Gram, GramPcg, GramProduct, ParamMatrix, PcgStop,
+};
 use crate::measure::{global_error_with, Floors, MeasureWork};
 use crate::newton::{GlobalNewton, NewtonOutcome};
 use crate::problem::{GlobalProblem, Problem};
@@ -30,9 +32,8 @@ use std::time::Instant;
 /// The global contact problem as an ADMM splitting.
 pub struct GlobalSplitting {
     p: GlobalProblem,
-    /// The symmetric part of M alone, refactorized at each update (see [`mass_factor`]).
-    mass: Factor,
-    mass_assembly: Assembly,
+    /// The symmetric part of M alone, refactorized at each update (see [`MassFactor`]).
+    mass: MassFactor,
     /// The v-update system and how it is solved.
     system: VelocitySystem,
     /// Mirror map of M when the system stores its upper triangle only (new values are
@@ -94,7 +95,7 @@ impl GlobalSplitting {
         let n = p.n();
         let m = 3 * p.n_contacts();
         // M alone first: a clear error when M is not positive definite.
-        let (mass, mass_assembly) = mass_factor(&p)?;
+        let mass = MassFactor::new(&p)?;
         let active = active_rows(&p.mu);
         let (system, kind) = velocity_system(&p, &active, backend)?;
         let dim = n + p.n_joints();
@@ -105,7 +106,6 @@ impl GlobalSplitting {
         let measure = MeasureWork::global(&p);
         Ok(Self {
             mass,
-            mass_assembly,
             system,
             m_mirror,
             sol: vec![0.0; dim],
@@ -154,9 +154,7 @@ impl GlobalSplitting {
             self.set_measure_floors(floors);
             return Ok(());
         }
-        self.mass
-            .reassemble(&self.mass_assembly, mass_triplets(&self.p), []);
-        self.mass.set_rho(0.0)?;
+        self.mass.refactorize(&self.p)?;
         self.stale = true;
         self.reset_shift();
         if let Some(newton) = &mut self.newton {
@@ -236,13 +234,53 @@ fn mass_triplets(p: &GlobalProblem) -> impl Iterator<Item = (usize, usize, f64)>
     triplets(&p.m).flat_map(|(i, j, v)| [(i, j, 0.5 * v), (j, i, 0.5 * v)])
 }
 
-/// Cholesky factor of the symmetric part of M (upper triangle), kept so that every update
-/// checks M on its own: `M + rho H H^T` can be positive definite while M is not.
-fn mass_factor(p: &GlobalProblem) -> Result<(Factor, Assembly), Error> {
-    let (matrix, assembly) = ParamMatrix::from_triplets(p.n(), mass_triplets(p), [], true);
-    let mut mass = Factor::new("M", matrix, FactorKind::Cholesky)?;
-    mass.set_rho(0.0)?;
-    Ok((mass, assembly))
+/// Cholesky factor of the symmetric part of M, kept so that every update checks M on its
+/// own: `M + rho H H^T` can be positive definite while M is not. Block by block when M is
+/// made of small diagonal blocks (rigid bodies), sparse (upper triangle) otherwise.
+enum MassFactor {
+    Blocks(BlockDiagonal),
+    Sparse(Factor, Assembly),
+}
+
+impl MassFactor {
+    /// Factorizes M's symmetric part (an error when it is not positive definite).
+    fn new(p: &GlobalProblem) -> Result<Self, Error> {
+        let mut mass = match BlockDiagonal::of(&p.m) {
+            Some(blocks) => Self::Blocks(blocks),
+            None => {
+                let (matrix, assembly) =
+                    ParamMatrix::from_triplets(p.n(), mass_triplets(p), [], true);
+                Self::Sparse(Factor::new("M", matrix, FactorKind::Cholesky)?, assembly)
+            }
+        };
+        mass.refactorize(p)?;
+        Ok(mass)
+    }
+
+    /// Factorizes the values now in `p.m` (the pattern it was made from).
+    fn refactorize(&mut self, p: &GlobalProblem) -> Result<(), Error> {
+        match self {
+            Self::Blocks(blocks) => blocks.factorize("M", &p.m),
+            Self::Sparse(factor, assembly) => {
+                factor.reassemble(assembly, mass_triplets(p), []);
+                factor.set_rho(0.0)
+            }
+        }
+    }
+
+    fn solve_in_place(&mut self, x: &mut [f64]) {
+        match self {
+            Self::Blocks(blocks) => blocks.solve_in_place(x),
+            Self::Sparse(factor, _) => factor.solve_in_place(x),
+        }
+    }
+
+    fn refactorizations(&self) -> usize {
+        match self {
+            Self::Blocks(blocks) => blocks.refactorizations(),
+            Self::Sparse(factor, _) => factor.refactorizations(),
+        }
+    }
 }
 
 /// The constant part of the v-update system, in a fixed order: M, then for each joint

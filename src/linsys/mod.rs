@@ -5,6 +5,7 @@
 //! rho rule that oscillates between two values does not refactorize back and forth. Small
 //! ones (an island of a few contacts) are factorized densely.
 
+mod block_diagonal;
 mod contact_columns;
 pub(crate) mod dense;
 mod gram_product;
@@ -13,6 +14,7 @@ mod pcg;
 mod sparse_factor;
 mod workers;
 
+pub use block_diagonal::BlockDiagonal;
 pub(crate) use contact_columns::ContactRows;
 use dense::DenseFactor;
 pub use dense::DENSE_MAX;

@@ -6,6 +6,7 @@
 use super::dense::{cholesky, cholesky_solve};
 use super::DENSE_MAX;
 use crate::csc::CscMatrix;
+use crate::islands::DisjointSets;
 use crate::types::Error;
 
 /// `(M + M^T) / 2 = L L^T` block by block. Block `b` spans the rows and columns
@@ -19,31 +20,17 @@ pub struct BlockDiagonal {
 }
 
 impl BlockDiagonal {
-    /// The blocks of `m` (square) when every stored entry lies in a diagonal block of
-    /// consecutive rows and columns of at most [`DENSE_MAX`]; `None` otherwise. Nothing is
+    /// The blocks of `m` (square) when its graph's connected components are ranges of
+    /// consecutive indices of at most [`DENSE_MAX`]; `None` otherwise. Nothing is
     /// factorized yet.
     pub fn of(m: &CscMatrix) -> Option<Self> {
-        let n = m.ncols();
-        let (mut start, mut at) = (vec![0], vec![0]);
-        // The block being read starts at `first` and reaches at least `end`.
-        let (mut first, mut end) = (0, 0);
-        for j in 0..n {
-            end = end.max(j + 1);
-            for (i, _) in m.col(j) {
-                if i < first {
-                    return None;
-                }
-                end = end.max(i + 1);
-            }
-            if end == j + 1 {
-                let size = end - first;
-                if size > DENSE_MAX {
-                    return None;
-                }
-                start.push(end);
-                at.push(at[at.len() - 1] + size * size);
-                first = end;
-            }
+        let (index, start, split) = components(m, DENSE_MAX);
+        if split || index.iter().enumerate().any(|(k, &i)| k != i) {
+            return None;
+        }
+        let mut at = vec![0];
+        for w in start.windows(2) {
+            at.push(at[at.len() - 1] + (w[1] - w[0]) * (w[1] - w[0]));
         }
         Some(Self {
             factors: vec![0.0; at[at.len() - 1]],
@@ -93,12 +80,47 @@ impl BlockDiagonal {
     }
 }
 
+/// The connected components of M's graph (an entry joins its row and its column, whether
+/// or not its mirror is stored) as blocks, indices ascending within each, components
+/// above `max` split into single indices. Returns the indices block after block, each
+/// block's start, and whether a component was split.
+pub(crate) fn components(m: &CscMatrix, max: usize) -> (Vec<usize>, Vec<usize>, bool) {
+    let n = m.ncols();
+    let mut sets = DisjointSets::new(n);
+    for j in 0..n {
+        for (i, _) in m.col(j) {
+            sets.union(i, j);
+        }
+    }
+    // Members of each component, in index order.
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for i in 0..n {
+        members[sets.find(i)].push(i);
+    }
+    let mut index = Vec::with_capacity(n);
+    let mut start = vec![0];
+    let mut split = false;
+    for component in members.into_iter().filter(|c| !c.is_empty()) {
+        if component.len() <= max {
+            index.extend_from_slice(&component);
+            start.push(index.len());
+        } else {
+            split = true;
+            for i in component {
+                index.push(i);
+                start.push(index.len());
+            }
+        }
+    }
+    (index, start, split)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// Blocks found where they are, refused where an entry reaches back into a closed
-    /// one or one is too large; the solve matches the dense symmetric part's, and an indefinite block
+    /// Blocks found where they are, refused where they are not ranges of indices or one is
+    /// too large; the solve matches the dense symmetric part's, and an indefinite block
     /// is named.
     #[test]
     fn blocks_factorize_and_solve() {
@@ -133,14 +155,17 @@ mod tests {
         for (got, want) in b.iter().zip(x) {
             assert!((got - want).abs() <= 1e-12, "{got} against {want}");
         }
-        // An entry below the diagonal joining the first block to the last: one block.
+        // An entry joining the first two blocks, stored below or above the diagonal only:
+        // one block of three.
+        for entry in [(2, 1, 0.1), (1, 2, 0.1)] {
+            let mut joined = t.to_vec();
+            joined.push(entry);
+            let m = CscMatrix::from_triplets("M", 6, 6, &joined).unwrap();
+            assert_eq!(BlockDiagonal::of(&m).unwrap().start, [0, 3, 6]);
+        }
+        // An entry joining the first block to the last: {0, 1, 3, 4, 5} is not a range,
+        // refused (the sparse factor takes such a matrix).
         let mut joined = t.to_vec();
-        joined.push((5, 0, 0.1));
-        let m = CscMatrix::from_triplets("M", 6, 6, &joined).unwrap();
-        assert_eq!(BlockDiagonal::of(&m).unwrap().start, [0, 6]);
-        // The same entry stored above the diagonal only, met after the first block
-        // closed: refused (the sparse factor takes such a matrix).
-        joined.pop();
         joined.push((0, 5, 0.1));
         let m = CscMatrix::from_triplets("M", 6, 6, &joined).unwrap();
         assert!(BlockDiagonal::of(&m).is_none());

@@ -8,11 +8,11 @@
 //! densely at each new rho. Components larger than [`BLOCK_MAX`] (a finite-element mesh's
 //! M) fall back to their diagonal.
 
+use super::block_diagonal::components;
 use super::contact_columns::ContactColumns;
 use super::dense::{cholesky, cholesky_solve};
 use super::workers::Workers;
 use crate::csc::{dot, norm2, CscMatrix, RowMajor};
-use crate::islands::DisjointSets;
 use crate::tuning::{PARALLEL_MIN_ENTRIES, PCG_TRUE_RESIDUAL_EVERY};
 use crate::types::Error;
 use std::ops::Range;
@@ -109,7 +109,7 @@ impl GramPcg {
     /// Finds the blocks in M's pattern and takes the values of `M`, `H` and `active`.
     pub fn new(a: Gram) -> Self {
         let n = a.m.ncols();
-        let (index, start) = blocks_of(a.m);
+        let (index, start, _) = components(a.m, BLOCK_MAX);
         let mut block_of = vec![0; n];
         let mut position = vec![0; n];
         let mut offset = Vec::with_capacity(start.len());
@@ -416,38 +416,6 @@ fn block_product<const K: usize>(a: &[f64], r: &[f64], z: &mut [f64]) {
     }
 }
 
-/// The connected components of M's graph as blocks (indices ascending within each), with
-/// components above [`BLOCK_MAX`] split into single indices. Returns the indices block
-/// after block and each block's start.
-fn blocks_of(m: &CscMatrix) -> (Vec<usize>, Vec<usize>) {
-    let n = m.ncols();
-    let mut sets = DisjointSets::new(n);
-    for j in 0..n {
-        for (i, _) in m.col(j) {
-            sets.union(i, j);
-        }
-    }
-    // Members of each component, in index order.
-    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for i in 0..n {
-        members[sets.find(i)].push(i);
-    }
-    let mut index = Vec::with_capacity(n);
-    let mut start = vec![0];
-    for component in members.into_iter().filter(|c| !c.is_empty()) {
-        if component.len() <= BLOCK_MAX {
-            index.extend_from_slice(&component);
-            start.push(index.len());
-        } else {
-            for i in component {
-                index.push(i);
-                start.push(index.len());
-            }
-        }
-    }
-    (index, start)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -477,7 +445,7 @@ mod tests {
     #[test]
     fn blocks_are_the_components_of_m() {
         let (m, _, _) = system();
-        let (index, start) = blocks_of(&m);
+        let (index, start, _) = components(&m, BLOCK_MAX);
         assert_eq!(index, vec![0, 1, 2, 3, 4]);
         assert_eq!(start, vec![0, 2, 4, 5]);
     }

@@ -27,36 +27,46 @@ struct Chunk {
 /// The rows each contact's three columns of H touch together: contact `c`'s are
 /// `rows[start[c]..start[c + 1]]`, ascending, and H's `k`-th stored entry (row `rows[a]`,
 /// column `3 c + d`) has the slot `slot[k] = 3 a + d` in a row-major `rows x 3` layout of
-/// the contacts' blocks.
+/// the contacts' blocks ([`LEFT_OUT`] in a column not kept).
 pub(crate) struct ContactRows {
     pub start: Vec<usize>,
     pub rows: Vec<usize>,
     pub slot: Vec<usize>,
 }
 
+/// The slot of an entry of H in a column [`ContactRows::of`] did not keep.
+pub(crate) const LEFT_OUT: usize = usize::MAX;
+
 impl ContactRows {
-    /// The contacts of `h` (three columns each).
-    pub fn of(h: &CscMatrix) -> Self {
+    /// The contacts of `h` (three columns each), over the columns `keep` accepts.
+    pub fn of(h: &CscMatrix, keep: impl Fn(usize) -> bool) -> Self {
         let contacts = h.ncols() / 3;
+        let (colptr, rowind) = (h.colptr(), h.rowind());
         let mut start = Vec::with_capacity(contacts + 1);
         start.push(0);
         let mut rows = Vec::with_capacity(h.nnz());
-        let mut slot = Vec::with_capacity(h.nnz());
-        let mut union = Vec::new();
+        let mut slot = vec![LEFT_OUT; h.nnz()];
         for c in 0..contacts {
-            union.clear();
-            for j in 3 * c..3 * c + 3 {
-                union.extend(h.col(j).map(|(i, _)| i));
-            }
-            union.sort_unstable();
-            union.dedup();
-            for j in 3 * c..3 * c + 3 {
-                for (i, _) in h.col(j) {
-                    let at = rows.len() + union.binary_search(&i).expect("in the union");
-                    slot.push(3 * at + j % 3);
+            // The kept columns' rows (each sorted) merged: each entry learns its slot on
+            // the way.
+            let mut next: [usize; 3] = std::array::from_fn(|d| colptr[3 * c + d]);
+            let end: [usize; 3] = std::array::from_fn(|d| {
+                let k = 3 * c + d;
+                colptr[if keep(k) { k + 1 } else { k }]
+            });
+            while let Some(low) = (0..3)
+                .filter(|&d| next[d] < end[d])
+                .map(|d| rowind[next[d]])
+                .min()
+            {
+                for d in 0..3 {
+                    if next[d] < end[d] && rowind[next[d]] == low {
+                        slot[next[d]] = 3 * rows.len() + d;
+                        next[d] += 1;
+                    }
                 }
+                rows.push(low);
             }
-            rows.extend_from_slice(&union);
             start.push(rows.len());
         }
         Self { start, rows, slot }
@@ -89,7 +99,7 @@ impl ContactColumns {
             mut start,
             rows,
             slot,
-        } = ContactRows::of(h);
+        } = ContactRows::of(h, |_| true);
         let mut rows: Vec<u32> = rows.into_iter().map(|i| i as u32).collect();
         let mut source: Vec<(usize, usize)> = slot.into_iter().zip(0..).collect();
         let shared = 3 * rows.len() <= (SHARED_ROWS_MAX_STORED * h.nnz() as f64) as usize;

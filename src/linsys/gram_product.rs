@@ -10,16 +10,8 @@
 //! `sum_k H(:, k) H(:, k)^T` does.
 
 use crate::csc::CscMatrix;
+use crate::linsys::contact_columns::{ContactRows, LEFT_OUT};
 use crate::linsys::param_matrix::Triplets;
-
-/// One stored entry of H in an active column: row `rows[start[c] + local]` of the
-/// contact's rows, its column within the contact (0, 1, 2), its position in H's values.
-#[derive(Debug, Clone, Copy)]
-struct Entry {
-    local: usize,
-    column: usize,
-    at: usize,
-}
 
 /// The pattern and values of `sum_{k active} H(:, k) H(:, k)^T` (the upper triangle only
 /// when asked), compressed by columns with sorted rows, for `H` of three columns per
@@ -27,13 +19,11 @@ struct Entry {
 #[derive(Debug, Clone)]
 pub struct GramProduct {
     upper_only: bool,
-    /// Contact `c`'s rows (those of its active columns), ascending:
-    /// `rows[start[c]..start[c + 1]]`.
+    /// Each contact's rows (those of its active columns), ascending, and each entry of H's
+    /// slot in the contacts' `rows x 3` blocks (see [`ContactRows`]).
     start: Vec<usize>,
     rows: Vec<usize>,
-    /// Contact `c`'s stored entries: `entries[entry_start[c]..entry_start[c + 1]]`.
-    entry_start: Vec<usize>,
-    entries: Vec<Entry>,
+    slot: Vec<usize>,
     /// The contact's columns each of its rows is stored in (bit `d` for column `3 c + d`):
     /// two rows pair, and their entry is stored, only where a column holds both.
     columns_of: Vec<u8>,
@@ -43,11 +33,11 @@ pub struct GramProduct {
     /// its positions.
     pairs_at: Vec<usize>,
     shares_previous: Vec<bool>,
-    slots: Vec<usize>,
+    positions: Vec<usize>,
     colptr: Vec<usize>,
     rowind: Vec<usize>,
     values: Vec<f64>,
-    /// One contact's block of H, `rows x 3` row-major.
+    /// One contact's block of H, `rows x 3` row-major, then the same weighted by column.
     block: Vec<f64>,
 }
 
@@ -56,84 +46,51 @@ impl GramProduct {
     pub fn new(h: &CscMatrix, active: &[f64], upper_only: bool) -> Self {
         let (n, contacts) = (h.nrows(), h.ncols() / 3);
         debug_assert_eq!(h.ncols(), 3 * contacts, "three columns per contact");
+        let ContactRows { start, rows, slot } = ContactRows::of(h, |k| active[k] != 0.0);
+        let mut columns_of = vec![0u8; rows.len()];
+        for &s in slot.iter().filter(|&&s| s != LEFT_OUT) {
+            columns_of[s / 3] |= 1 << (s % 3);
+        }
         let mut product = Self {
             upper_only,
-            start: Vec::with_capacity(contacts + 1),
-            rows: Vec::with_capacity(h.nnz()),
-            entry_start: Vec::with_capacity(contacts + 1),
-            entries: Vec::with_capacity(h.nnz()),
-            columns_of: Vec::with_capacity(h.nnz()),
+            start,
+            rows,
+            slot,
+            columns_of,
             pairs_at: Vec::with_capacity(contacts),
             shares_previous: Vec::with_capacity(contacts),
-            slots: Vec::new(),
+            positions: Vec::new(),
             colptr: Vec::with_capacity(n + 1),
             rowind: Vec::new(),
             values: Vec::new(),
             block: Vec::new(),
         };
-        product.contacts(h, active);
+        product.share_pairs();
         product.pattern(n);
         product.values = vec![0.0; product.rowind.len()];
         product.recompute(h, active);
         product
     }
 
-    /// Each contact's rows, entries and pair positions' offsets.
-    fn contacts(&mut self, h: &CscMatrix, active: &[f64]) {
-        self.start.push(0);
-        self.entry_start.push(0);
-        let (mut widest, mut pairs_total) = (0, 0);
-        let (colptr, rowind) = (h.colptr(), h.rowind());
-        for c in 0..h.ncols() / 3 {
-            let from = self.rows.len();
-            // The union of the active columns' rows (each sorted), merged: each entry
-            // learns its place in it on the way.
-            let mut next: [usize; 3] = std::array::from_fn(|d| colptr[3 * c + d]);
-            let end: [usize; 3] = std::array::from_fn(|d| {
-                let k = 3 * c + d;
-                if active[k] != 0.0 {
-                    colptr[k + 1]
-                } else {
-                    colptr[k]
-                }
-            });
-            while let Some(low) = (0..3)
-                .filter(|&d| next[d] < end[d])
-                .map(|d| rowind[next[d]])
-                .min()
-            {
-                let local = self.rows.len() - from;
-                let mut columns = 0u8;
-                for d in 0..3 {
-                    if next[d] < end[d] && rowind[next[d]] == low {
-                        self.entries.push(Entry {
-                            local,
-                            column: d,
-                            at: next[d],
-                        });
-                        columns |= 1 << d;
-                        next[d] += 1;
-                    }
-                }
-                self.rows.push(low);
-                self.columns_of.push(columns);
-            }
-            let own = &self.rows[from..];
-            let r = own.len();
+    /// Where each contact's pair positions start: a contact with the rows and columns of
+    /// the one before shares its positions.
+    fn share_pairs(&mut self) {
+        let (mut widest, mut total) = (0, 0);
+        for c in 0..self.start.len() - 1 {
+            let (from, to) = (self.start[c], self.start[c + 1]);
+            let r = to - from;
             widest = widest.max(r);
             let same = c > 0 && r > 0 && {
                 let before = self.start[c - 1];
-                self.rows[before..from] == self.rows[from..]
-                    && self.columns_of[before..from] == self.columns_of[from..]
+                self.rows[before..from] == self.rows[from..to]
+                    && self.columns_of[before..from] == self.columns_of[from..to]
             };
-            self.start.push(self.rows.len());
-            self.entry_start.push(self.entries.len());
             self.shares_previous.push(same);
             if same {
                 self.pairs_at.push(self.pairs_at[c - 1]);
             } else {
-                self.pairs_at.push(pairs_total);
-                pairs_total += if self.upper_only {
+                self.pairs_at.push(total);
+                total += if self.upper_only {
                     r * (r + 1) / 2
                 } else {
                     r * r
@@ -141,7 +98,7 @@ impl GramProduct {
             }
         }
         self.block = vec![0.0; 6 * widest];
-        self.slots = vec![0; pairs_total];
+        self.positions = vec![0; total];
     }
 
     /// The product's pattern (column `j` holds the rows every contact touching `j` pairs
@@ -176,9 +133,9 @@ impl GramProduct {
             let from = self.rowind.len();
             let here = &touching[touch_start[j]..touch_start[j + 1]];
             for &(c, b) in here {
-                let from = self.start[c];
-                let own = &self.rows[from..self.start[c + 1]];
-                let shared = |a: usize| self.columns_of[from + a] & self.columns_of[from + b] != 0;
+                let base = self.start[c];
+                let own = &self.rows[base..self.start[c + 1]];
+                let shared = |a: usize| self.columns_of[base + a] & self.columns_of[base + b] != 0;
                 for a in partners(self.upper_only, b, own.len()).filter(|&a| shared(a)) {
                     if seen[own[a]] != j {
                         seen[own[a]] = j;
@@ -191,8 +148,8 @@ impl GramProduct {
                 place[self.rowind[q]] = q;
             }
             for &(c, b) in here {
-                let from = self.start[c];
-                let own = &self.rows[from..self.start[c + 1]];
+                let base = self.start[c];
+                let own = &self.rows[base..self.start[c + 1]];
                 let r = own.len();
                 let first = self.pairs_at[c]
                     + if self.upper_only {
@@ -201,8 +158,8 @@ impl GramProduct {
                         b * r
                     };
                 for a in partners(self.upper_only, b, r) {
-                    let shared = self.columns_of[from + a] & self.columns_of[from + b] != 0;
-                    self.slots[first + a] = if shared { place[own[a]] } else { UNPAIRED };
+                    let shared = self.columns_of[base + a] & self.columns_of[base + b] != 0;
+                    self.positions[first + a] = if shared { place[own[a]] } else { UNPAIRED };
                 }
             }
             self.colptr.push(self.rowind.len());
@@ -220,8 +177,11 @@ impl GramProduct {
             // The contact's block of H, then the same weighted by column: `w_k H_jk`.
             let (block, weighted) = self.block[..6 * r].split_at_mut(3 * r);
             block.fill(0.0);
-            for e in &self.entries[self.entry_start[c]..self.entry_start[c + 1]] {
-                block[3 * e.local + e.column] = hv[e.at];
+            let first = 3 * self.start[c];
+            for k in h.colptr()[3 * c]..h.colptr()[3 * c + 3] {
+                if self.slot[k] != LEFT_OUT {
+                    block[self.slot[k] - first] = hv[k];
+                }
             }
             for (x, (w, &v)) in weighted
                 .iter_mut()
@@ -230,12 +190,12 @@ impl GramProduct {
                 *x = v * w;
             }
             let columns_of = &self.columns_of[self.start[c]..self.start[c + 1]];
-            let mut slot = self.pairs_at[c];
+            let mut pair = self.pairs_at[c];
             for b in 0..r {
                 let wb = &weighted[3 * b..3 * b + 3];
                 for a in partners(self.upper_only, b, r) {
-                    let (at, shared) = (self.slots[slot], columns_of[a] & columns_of[b]);
-                    slot += 1;
+                    let (at, shared) = (self.positions[pair], columns_of[a] & columns_of[b]);
+                    pair += 1;
                     let ha = &block[3 * a..3 * a + 3];
                     if shared == 0b111 {
                         let value = &mut self.values[at];

@@ -79,7 +79,7 @@ impl ReducedSystem {
             start: row_ptr,
             rows,
             slot: h_pos,
-        } = ContactRows::of(h);
+        } = ContactRows::of(h, |_| true);
         let contact_rows = |i: usize| &rows[row_ptr[i]..row_ptr[i + 1]];
         let mut cols: Vec<Vec<usize>> = vec![Vec::new(); n + p];
         for c in 0..m.ncols() {

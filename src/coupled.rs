@@ -54,6 +54,8 @@ pub(crate) struct CoupledSolver {
     trace: Vec<TracePoint>,
     /// A small problem with the Newton phase on: each solve starts with Newton.
     newton_first: bool,
+    /// Its Newton steps factorize a dense system.
+    dense_newton: bool,
 }
 
 impl CoupledSolver {
@@ -74,6 +76,12 @@ impl CoupledSolver {
             Problem::Local(_) => 0,
         };
         let small = problem.n_velocities() + l + joints <= DENSE_MAX;
+        // The global Newton step is solved on the velocities and joints (reduced), the
+        // local one on the contact rows.
+        let dense_newton = match &problem {
+            Problem::Global(_) => problem.n_velocities() + joints <= DENSE_MAX,
+            Problem::Local(_) => l <= DENSE_MAX,
+        };
         let mut form = contact_form(problem, settings.linear_solver)?;
         if form.matrix_free() && resolved.newton == NewtonUse::Polish {
             // A Newton phase would factorize what the matrix-free backend avoids.
@@ -105,6 +113,7 @@ impl CoupledSolver {
             stats,
             trace: Vec::new(),
             newton_first,
+            dense_newton,
         })
     }
 
@@ -201,7 +210,9 @@ impl CoupledSolver {
         }
         self.warm = false;
         self.trace.clear();
-        let set = self.settings.engine_settings(&self.resolved);
+        let set = self
+            .settings
+            .engine_settings(&self.resolved, self.dense_newton);
         let mut run = Run {
             deadline: t0
                 .checked_add(Duration::try_from_secs_f64(set.time_limit).unwrap_or(Duration::MAX)),

@@ -3,8 +3,8 @@
 use crate::admm::{EngineSettings, Handover, SUpdate, Variant};
 use crate::tuning::{
     ERROR_CHECK_INTERVAL, HANDOVER_ERROR, HANDOVER_STALL_CHECKS, NEWTON_BUDGET,
-    NEWTON_EXPECTED_STEPS, NEWTON_RESCUE_STEPS, NEWTON_STEP_ITERATIONS, RESIDUAL_EPS_ABS,
-    RESIDUAL_EPS_ABS_FROM, RHO_RANGE,
+    NEWTON_DENSE_STEP_ITERATIONS, NEWTON_EXPECTED_STEPS, NEWTON_RESCUE_STEPS,
+    NEWTON_STEP_ITERATIONS, RESIDUAL_EPS_ABS, RESIDUAL_EPS_ABS_FROM, RHO_RANGE,
 };
 use crate::types::Error;
 
@@ -235,8 +235,13 @@ impl Settings {
         }
     }
 
-    /// What the engine loop runs with.
-    pub(crate) fn engine_settings(&self, resolved: &Resolved) -> EngineSettings {
+    /// What the engine loop runs with, for a problem whose Newton step factorizes a dense
+    /// system or not (the step's cost in the handover's model).
+    pub(crate) fn engine_settings(
+        &self,
+        resolved: &Resolved,
+        dense_newton: bool,
+    ) -> EngineSettings {
         EngineSettings {
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
@@ -255,7 +260,10 @@ impl Settings {
                 stall_checks: HANDOVER_STALL_CHECKS,
                 newton_steps: NEWTON_EXPECTED_STEPS,
                 rescue_steps: NEWTON_RESCUE_STEPS,
-                newton_step_iterations: NEWTON_STEP_ITERATIONS,
+                newton_step_iterations: match dense_newton {
+                    true => NEWTON_DENSE_STEP_ITERATIONS,
+                    false => NEWTON_STEP_ITERATIONS,
+                },
                 budget: NEWTON_BUDGET,
             }),
         }

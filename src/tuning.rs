@@ -56,6 +56,11 @@ pub const NEWTON_RESCUE_STEPS: f64 = 30.0;
 /// without such a rule, 1.06 with 200 iterations).
 pub const NEWTON_STEP_ITERATIONS: f64 = 50.0;
 
+/// ... and where the step's system is dense (the reduced global system: velocities and
+/// joints; the local one: contact rows; at most [`DENSE_MAX`] unknowns), this many: such a
+/// step costs about as much as a few ADMM iterations.
+pub const NEWTON_DENSE_STEP_ITERATIONS: f64 = 5.0;
+
 /// A Newton phase after a handover below the handover error may take the steps that cost,
 /// at [`NEWTON_STEP_ITERATIONS`] each, this many times the iterations ADMM predicted it
 /// still needed; past them it ends as a failed phase. `auto` then costs at most about that

@@ -17,50 +17,9 @@ const G: f64 = 9.81;
 /// horizontally at its centre by `push` (N) during one step of `H`: the global problem in
 /// generalized velocities `(v, omega)` (world frame, centre of mass at the origin).
 fn box_on_four_corners(mass: f64, mu: f64, push: f64) -> GlobalProblem {
-    let (a, c) = (0.5, 0.5);
-    let inertia = mass * (a * a + c * c) / 3.0;
-    let m = CscMatrix::from_triplets(
-        "M",
-        6,
-        6,
-        &[
-            (0, 0, mass),
-            (1, 1, mass),
-            (2, 2, mass),
-            (3, 3, inertia),
-            (4, 4, inertia),
-            (5, 5, inertia),
-        ],
-    )
-    .unwrap();
-    // Contact k at corner p: frame (normal e_z, tangents e_x, e_y); the column of H for
-    // direction d is (d, p x d).
-    let mut t = Vec::new();
-    for (k, (sx, sy)) in [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
-        .into_iter()
-        .enumerate()
-    {
-        let p = [sx * a, sy * a, -c];
-        for (j, d) in [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
-            .into_iter()
-            .enumerate()
-        {
-            let col = 3 * k + j;
-            let pxd = [
-                p[1] * d[2] - p[2] * d[1],
-                p[2] * d[0] - p[0] * d[2],
-                p[0] * d[1] - p[1] * d[0],
-            ];
-            for (i, x) in d.into_iter().chain(pxd).enumerate() {
-                if x != 0.0 {
-                    t.push((i, col, x));
-                }
-            }
-        }
-    }
-    let h = CscMatrix::from_triplets("H", 6, 12, &t).unwrap();
-    let f = vec![push * H, 0.0, -mass * G * H, 0.0, 0.0, 0.0];
-    GlobalProblem::new(m, h, f, vec![0.0; 12], vec![mu; 4]).unwrap()
+    let mut p = tower(&[mass], mu);
+    p.f[0] = push * H;
+    p
 }
 
 /// The Delassus form `W = H^T M^-1 H`, `q = H^T M^-1 f + w` of a problem with diagonal M.
@@ -328,15 +287,15 @@ fn impulses_that_run_off_without_a_solution_are_reported_infeasible() {
     }
 }
 
-/// A tower of `boxes` unit cubes, each resting by its four bottom corners on the top of the
-/// one below (the first on the ground), masses alternating 1 and `heavy`: one step of `H`
-/// under gravity.
-fn tower(boxes: usize, heavy: f64) -> GlobalProblem {
+/// A tower of unit cubes of masses `masses` (bottom first), each resting by its four
+/// bottom corners on the top of the one below (the first on the ground), friction `mu`: one
+/// step of `H` under gravity.
+fn tower(masses: &[f64], mu: f64) -> GlobalProblem {
     let (a, c) = (0.5, 0.5);
+    let boxes = masses.len();
     let mut m = Vec::new();
     let mut f = vec![0.0; 6 * boxes];
-    for b in 0..boxes {
-        let mass = if b % 2 == 0 { 1.0 } else { heavy };
+    for (b, &mass) in masses.iter().enumerate() {
         let inertia = mass * (a * a + c * c) / 3.0;
         for (i, x) in [mass, mass, mass, inertia, inertia, inertia]
             .into_iter()
@@ -386,7 +345,7 @@ fn tower(boxes: usize, heavy: f64) -> GlobalProblem {
     let (n, l) = (6 * boxes, 12 * boxes);
     let m = CscMatrix::from_triplets("M", n, n, &m).unwrap();
     let h = CscMatrix::from_triplets("H", n, l, &t).unwrap();
-    GlobalProblem::new(m, h, f, vec![0.0; l], vec![0.5; 4 * boxes]).unwrap()
+    GlobalProblem::new(m, h, f, vec![0.0; l], vec![mu; 4 * boxes]).unwrap()
 }
 
 /// A tower of four boxes (24 velocities, 48 contact rows) in motion: box `b` slides at
@@ -397,10 +356,10 @@ fn tower(boxes: usize, heavy: f64) -> GlobalProblem {
 /// step costed as a sparse one, 50 iterations, `auto` never hands over).
 #[test]
 fn a_small_tower_in_motion_is_polished_early() {
-    let (boxes, heavy) = (4, 100.0);
-    let mut p = tower(boxes, heavy);
-    for b in 0..boxes {
-        let mass = if b % 2 == 0 { 1.0 } else { heavy };
+    let masses = [1.0, 100.0, 1.0, 100.0];
+    let boxes = masses.len();
+    let mut p = tower(&masses, 0.5);
+    for (b, &mass) in masses.iter().enumerate() {
         p.f[6 * b] += mass * 0.5 * b as f64 / boxes as f64;
         if b + 1 == boxes {
             p.f[6 * b + 2] -= mass * 2.0;

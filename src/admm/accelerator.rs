@@ -3,8 +3,8 @@
 //! Anderson point under its safeguard (§7; the extrapolation itself is in `anderson.rs`).
 
 use super::anderson::Anderson;
+use super::engine::IterationSums;
 use super::{EngineSettings, Relaxation};
-use crate::csc::norm2;
 
 /// Restart's eta: momentum needs this residual decrease (Goldstein et al., docs/algorithms.md §6.4).
 const RESTART_ETA: f64 = 0.999;
@@ -49,23 +49,23 @@ impl Accelerator {
         }
     }
 
-    /// The safeguard, from the iteration's squared primal residual and `diff = y+ - y_in`.
+    /// The safeguard, from the iteration's squared primal residual and `||y+ - y_in||^2`.
     /// On a rejection the next input is written into `y_in`, `z_in`.
     pub(super) fn screen(
         &mut self,
-        primal_sq: f64,
-        diff: &[f64],
+        sums: &IterationSums,
         y_in: &mut [f64],
         z_in: &mut [f64],
     ) -> Screen {
         match self {
-            Self::Anderson(a) => a.screen(primal_sq, diff, y_in, z_in),
+            Self::Anderson(a) => a.screen(sums.primal_sq + sums.diff_sq, y_in, z_in),
             _ => Screen::Plain,
         }
     }
 
     /// Overwrites the iteration's input `(y_in, z_in)` with the next input, from the
-    /// output `(y, zeta)` of the `k`-th (0-based) iteration.
+    /// output `(y, zeta)` of the `k`-th (0-based) iteration; `sum` adds up partial sums
+    /// across the processes sharing the problem.
     pub(super) fn next_input(
         &mut self,
         k: usize,
@@ -73,14 +73,15 @@ impl Accelerator {
         zeta: &[f64],
         y_in: &mut [f64],
         z_in: &mut [f64],
+        sum: &dyn Fn(&mut [f64]),
     ) {
         match self {
             Self::Plain => {
                 y_in.copy_from_slice(y);
                 z_in.copy_from_slice(zeta);
             }
-            Self::Nesterov(n) => n.next_input(y, zeta, y_in, z_in),
-            Self::Anderson(a) => a.next_input(k, y, zeta, y_in, z_in),
+            Self::Nesterov(n) => n.next_input(y, zeta, y_in, z_in, sum),
+            Self::Anderson(a) => a.next_input(k, y, zeta, y_in, z_in, sum),
         }
     }
 
@@ -127,8 +128,15 @@ impl Nesterov {
         }
     }
 
-    fn next_input(&mut self, y: &[f64], zeta: &[f64], y_in: &mut [f64], z_in: &mut [f64]) {
-        let relax = !self.restart || self.keeps_momentum(y, zeta, y_in, z_in);
+    fn next_input(
+        &mut self,
+        y: &[f64],
+        zeta: &[f64],
+        y_in: &mut [f64],
+        z_in: &mut [f64],
+        sum: &dyn Fn(&mut [f64]),
+    ) {
+        let relax = !self.restart || self.keeps_momentum(y, zeta, y_in, z_in, sum);
         if relax {
             // alpha' = (1 + sqrt(1 + 4 alpha^2)) / 2, beta = (alpha - 1) / alpha'.
             let alpha_next = 0.5 * (1.0 + (1.0 + 4.0 * self.alpha * self.alpha).sqrt());
@@ -148,8 +156,17 @@ impl Nesterov {
 
     /// The restart rule: momentum continues while the combined residual of the iteration
     /// falls by `RESTART_ETA`; otherwise it restarts and the reference is relaxed.
-    fn keeps_momentum(&mut self, y: &[f64], zeta: &[f64], y_in: &[f64], z_in: &[f64]) -> bool {
-        let e = norm_diff_sq(zeta, z_in) + norm_diff_sq(y, y_in);
+    fn keeps_momentum(
+        &mut self,
+        y: &[f64],
+        zeta: &[f64],
+        y_in: &[f64],
+        z_in: &[f64],
+        sum: &dyn Fn(&mut [f64]),
+    ) -> bool {
+        let mut e = [norm_diff_sq(zeta, z_in) + norm_diff_sq(y, y_in)];
+        sum(&mut e);
+        let e = e[0];
         if e < RESTART_ETA * self.e_prev {
             self.e_prev = e;
             true
@@ -200,15 +217,9 @@ impl Safeguarded {
     }
 
     /// Rejects an Anderson point whose fixed-point residual
-    /// `sqrt(||A x+ - c - y+||^2 + ||y+ - y_in||^2)` exceeds the last kept one.
-    fn screen(
-        &mut self,
-        primal_sq: f64,
-        diff: &[f64],
-        y_in: &mut [f64],
-        z_in: &mut [f64],
-    ) -> Screen {
-        let res = (primal_sq + norm2(diff).powi(2)).sqrt();
+    /// `sqrt(||A x+ - c - y+||^2 + ||y+ - y_in||^2)` (of `res_sq`) exceeds the last kept one.
+    fn screen(&mut self, res_sq: f64, y_in: &mut [f64], z_in: &mut [f64]) -> Screen {
+        let res = res_sq.sqrt();
         if self.tried && res > self.res_prev {
             self.aa.reset();
             self.tried = false;
@@ -232,6 +243,7 @@ impl Safeguarded {
         zeta: &[f64],
         y_in: &mut [f64],
         z_in: &mut [f64],
+        sum: &dyn Fn(&mut [f64]),
     ) {
         let l = y.len();
         self.x[..l].copy_from_slice(y_in);
@@ -240,7 +252,7 @@ impl Safeguarded {
         self.g[l..].copy_from_slice(zeta);
         // The history grows every iteration; the extrapolated point is used only on the
         // iterations that try it.
-        let extrapolated = self.aa.step(&self.x, &self.g, &mut self.next);
+        let extrapolated = self.aa.step_across(&self.x, &self.g, &mut self.next, sum);
         self.tried = extrapolated && (k + 1) % self.interval == 0;
         self.plain.copy_from_slice(&self.g);
         let next = if self.tried { &self.next } else { &self.g };

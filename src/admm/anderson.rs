@@ -55,6 +55,19 @@ impl Anderson {
     /// Returns false (and leaves `out` = `g`) when there is no history yet or the
     /// least-squares system is degenerate.
     pub fn step(&mut self, x: &[f64], g: &[f64], out: &mut [f64]) -> bool {
+        self.step_across(x, g, out, &|_| {})
+    }
+
+    /// [`Anderson::step`] for vectors shared out among processes, each holding its part:
+    /// `sum` adds up partial sums across them (in place), so that every process solves
+    /// the same least-squares problem.
+    pub fn step_across(
+        &mut self,
+        x: &[f64],
+        g: &[f64],
+        out: &mut [f64],
+        sum: &dyn Fn(&mut [f64]),
+    ) -> bool {
         debug_assert_eq!(x.len(), self.dim);
         out.copy_from_slice(g);
         if self.memory == 0 {
@@ -81,10 +94,17 @@ impl Anderson {
                 dgc[i] = g[i] - self.g_prev[i];
             }
             for j in 0..m {
+                self.rhs[j] = if self.is_live(j) {
+                    dot_cols(&self.df, self.dim, col, j)
+                } else {
+                    0.0
+                };
+            }
+            sum(&mut self.rhs);
+            for j in 0..m {
                 if self.is_live(j) {
-                    let v = dot_cols(&self.df, self.dim, col, j);
-                    self.gram[col * m + j] = v;
-                    self.gram[j * m + col] = v;
+                    self.gram[col * m + j] = self.rhs[j];
+                    self.gram[j * m + col] = self.rhs[j];
                 }
             }
         }
@@ -109,6 +129,7 @@ impl Anderson {
             }
             trace += self.sys[a * k + a];
         }
+        sum(&mut self.rhs[..k]);
         if !(trace > 0.0 && trace.is_finite()) {
             return false;
         }
@@ -131,7 +152,9 @@ impl Anderson {
                 *o -= gma * d;
             }
         }
-        out.iter().all(|v| v.is_finite())
+        let mut non_finite = [f64::from(u8::from(!out.iter().all(|v| v.is_finite())))];
+        sum(&mut non_finite);
+        non_finite[0] == 0.0
     }
 
     fn is_live(&self, col: usize) -> bool {

@@ -8,7 +8,7 @@ use super::best_iterate::BestIterate;
 use super::handover::{Handover, HandoverMonitor};
 use super::rho_rule::{IterationView, RhoAdapter};
 use super::{SUpdate, Splitting, Variant};
-use crate::csc::norm2;
+use crate::csc::dot;
 use crate::types::{Error, Status};
 use crate::types::{Phase, TracePoint};
 use std::time::{Duration, Instant};
@@ -119,7 +119,7 @@ pub fn run(
     let mut accel = Accelerator::new(set, &state.y, &state.zeta);
     let mut rule = RhoAdapter::new(set.variant.rule, l);
     let mut shift = ShiftSchedule::new(set);
-    let mut stop = StopTest::new(set, start);
+    let mut stop = StopTest::new(set, start, sp);
     let mut best = BestIterate::new(state, sp);
     let mut rho = state.rho;
     // Whether the form's own x iterate (the global form's velocity) came from a rejected
@@ -130,15 +130,15 @@ pub fn run(
         // x-step, y-step, dual update.
         sp.x_step(&w.y_in, &w.z_in, rho, &mut w.ax);
         sp.y_step(&w.ax, &w.z_in, &mut w.y);
-        let primal_sq = w.dual_update(sp.c());
-        let (primal, dual) = (primal_sq.sqrt(), rho * sp.norm_at(&w.diff));
+        let sums = w.dual_update(sp);
+        let (primal, dual) = (sums.primal_sq.sqrt(), rho * sp.norm_at(&w.diff));
         (out.iterations, out.primal, out.dual) = (k + 1, primal, dual);
-        if !(w.finite() && dual.is_finite()) {
+        if !(sums.finite && dual.is_finite()) {
             out.status = Some(Status::NumericalError);
             break; // state still holds the last finite iterate
         }
         // A rejected Anderson point voids the iteration: it restarts from the plain point.
-        match accel.screen(primal_sq, &w.diff, &mut w.y_in, &mut w.z_in) {
+        match accel.screen(&sums, &mut w.y_in, &mut w.z_in) {
             Screen::Rejected => {
                 out.aa_rejected += 1;
                 x_stale = true;
@@ -151,7 +151,11 @@ pub fn run(
         w.keep(state, rho); // the state now holds a finite iterate
 
         // Measure; stop test.
-        let r = w.residuals(primal, dual);
+        let r = Residuals {
+            primal,
+            dual,
+            xy_scale: sums.ax_sq.sqrt().max(sums.y_sq.sqrt()),
+        };
         if stop.ends(sp, state, k, &r, &mut out, &mut best) {
             break;
         }
@@ -160,7 +164,8 @@ pub fn run(
         // Next rho, from this iteration's quantities (and c after the s update).
         let rho_next = next_rho(&mut rule, sp, &w, k, rho, &r).clamp(rho_min, rho_max);
         // Next input.
-        accel.next_input(k, &w.y, &w.zeta, &mut w.y_in, &mut w.z_in);
+        let sum = |partial: &mut [f64]| sp.sum_across(partial);
+        accel.next_input(k, &w.y, &w.zeta, &mut w.y_in, &mut w.z_in, &sum);
         if rho_next != rho {
             // Scaled form: the unscaled dual rho * zeta is what must stay put.
             let s = rho / rho_next;
@@ -238,9 +243,10 @@ impl Work {
         }
     }
 
-    /// `zeta+ = zeta_in + A x+ - c - y+` and `y+ - y_in`; returns the squared primal
-    /// residual `||A x+ - c - y+||^2`.
-    fn dual_update(&mut self, c: &[f64]) -> f64 {
+    /// `zeta+ = zeta_in + A x+ - c - y+` and `y+ - y_in`; returns the iteration's sums,
+    /// added up across the processes sharing the problem.
+    fn dual_update(&mut self, sp: &dyn Splitting) -> IterationSums {
+        let c = sp.c();
         let mut primal_sq = 0.0;
         for i in 0..self.y.len() {
             let r = self.ax[i] - c[i] - self.y[i];
@@ -248,20 +254,21 @@ impl Work {
             primal_sq += r * r;
             self.diff[i] = self.y[i] - self.y_in[i];
         }
-        primal_sq
-    }
-
-    /// The iteration's output is finite.
-    fn finite(&self) -> bool {
-        finite(&self.ax) && finite(&self.y) && finite(&self.zeta)
-    }
-
-    /// The iteration's residuals with the scale of its output.
-    fn residuals(&self, primal: f64, dual: f64) -> Residuals {
-        Residuals {
-            primal,
-            dual,
-            xy_scale: norm2(&self.ax).max(norm2(&self.y)),
+        let finite = finite(&self.ax) && finite(&self.y) && finite(&self.zeta);
+        let mut sums = [
+            primal_sq,
+            dot(&self.diff, &self.diff),
+            dot(&self.ax, &self.ax),
+            dot(&self.y, &self.y),
+            if finite { 0.0 } else { 1.0 },
+        ];
+        sp.sum_across(&mut sums);
+        IterationSums {
+            primal_sq: sums[0],
+            diff_sq: sums[1],
+            ax_sq: sums[2],
+            y_sq: sums[3],
+            finite: sums[4] == 0.0,
         }
     }
 
@@ -276,6 +283,21 @@ impl Work {
 
 fn finite(x: &[f64]) -> bool {
     x.iter().all(|v| v.is_finite())
+}
+
+/// An iteration's squared norms and whether its output is finite (everywhere, when the
+/// problem is shared by several processes).
+pub(super) struct IterationSums {
+    /// `||A x+ - c - y+||^2`.
+    pub primal_sq: f64,
+    /// `||y+ - y_in||^2`.
+    pub diff_sq: f64,
+    /// `||A x+||^2`.
+    pub ax_sq: f64,
+    /// `||y+||^2`.
+    pub y_sq: f64,
+    /// `A x+`, `y+` and `zeta+` are finite.
+    pub finite: bool,
 }
 
 /// An iteration's residuals (docs/algorithms.md §4.1) and the scale they are judged by.
@@ -294,15 +316,20 @@ struct StopTest<'a> {
     set: &'a EngineSettings,
     start: Instant,
     monitor: Option<HandoverMonitor>,
+    /// The constraint space's dimension (of every process's part together).
+    dim: f64,
 }
 
 impl<'a> StopTest<'a> {
-    fn new(set: &'a EngineSettings, start: Instant) -> Self {
+    fn new(set: &'a EngineSettings, start: Instant, sp: &dyn Splitting) -> Self {
         let monitor = set.handover.map(|h| HandoverMonitor::new(h, set.tolerance));
+        let mut dim = [sp.dim() as f64];
+        sp.sum_across(&mut dim);
         Self {
             set,
             start,
             monitor,
+            dim: dim[0],
         }
     }
 
@@ -347,7 +374,7 @@ impl<'a> StopTest<'a> {
         {
             out.handed_over = true;
             out.newton_budget = left;
-        } else if self.start.elapsed().as_secs_f64() > set.time_limit {
+        } else if out_of_time(sp, self.start, set.time_limit) {
             out.status = Some(Status::TimeLimit);
         }
         out.status.is_some() || out.handed_over
@@ -357,8 +384,8 @@ impl<'a> StopTest<'a> {
     /// residual passes.
     fn residual_test(&self, sp: &mut dyn Splitting, state: &EngineState, r: &Residuals) -> bool {
         let set = self.set;
-        let sqrt_l = (state.y.len() as f64).sqrt();
-        let eps_pri = sqrt_l * set.eps_abs + set.eps_rel * r.xy_scale.max(norm2(sp.c()));
+        let sqrt_l = self.dim.sqrt();
+        let eps_pri = sqrt_l * set.eps_abs + set.eps_rel * r.xy_scale.max(norm_c(sp));
         r.primal <= eps_pri && {
             let eps_dual = sqrt_l * set.eps_abs + set.eps_rel * state.rho * sp.norm_at(&state.zeta);
             r.dual <= eps_dual
@@ -410,7 +437,7 @@ impl ShiftSchedule {
         match self.mode {
             SUpdate::Internal => sp.update_s(&w.ax, &w.y),
             SUpdate::External => {
-                let scale = r.xy_scale.max(norm2(sp.c())).max(TINY_SCALE);
+                let scale = r.xy_scale.max(norm_c(sp)).max(TINY_SCALE);
                 if r.primal <= self.inner_tol * scale
                     && r.dual <= self.inner_tol * rho * sp.norm_at(&w.zeta).max(TINY_SCALE)
                 {
@@ -442,7 +469,7 @@ fn next_rho(
         rho,
         primal: r.primal,
         dual: r.dual,
-        primal_scale: r.xy_scale.max(norm2(sp.c())),
+        primal_scale: r.xy_scale.max(norm_c(sp)),
         dual_scale,
         ax: &w.ax,
         y: &w.y,
@@ -450,5 +477,21 @@ fn next_rho(
         zeta_in: &w.z_in,
         y_in: &w.y_in,
         c: sp.c(),
+        sum: &|partial| sp.sum_across(partial),
     })
+}
+
+/// `||c||` across the processes sharing the problem.
+fn norm_c(sp: &dyn Splitting) -> f64 {
+    let mut c_sq = [dot(sp.c(), sp.c())];
+    sp.sum_across(&mut c_sq);
+    c_sq[0].sqrt()
+}
+
+/// Whether the run is past its time limit (on any of the processes sharing the problem:
+/// they all stop together).
+fn out_of_time(sp: &dyn Splitting, start: Instant, limit: f64) -> bool {
+    let mut late = [f64::from(u8::from(start.elapsed().as_secs_f64() > limit))];
+    sp.sum_across(&mut late);
+    late[0] > 0.0
 }

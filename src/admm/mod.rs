@@ -69,6 +69,12 @@ pub trait Splitting {
     fn system_changed(&self) -> bool {
         false
     }
+    /// Adds up, entry by entry and in place, partial sums that each process sharing a
+    /// distributed problem computed over its own part of the constraint space, so that
+    /// every process holds the totals: the engine's norms, dot products and agreement
+    /// flags (a non-finite iterate, the clock) go through it, and every process takes the
+    /// same decisions. One process owns the whole space: nothing, by default.
+    fn sum_across(&self, _partial: &mut [f64]) {}
 }
 
 /// When the s parameter is updated.

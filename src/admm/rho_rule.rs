@@ -85,6 +85,9 @@ pub struct IterationView<'a> {
     pub y_in: &'a [f64],
     /// The constraint constant.
     pub c: &'a [f64],
+    /// Adds up partial sums across the processes sharing the problem
+    /// ([`super::Splitting::sum_across`]).
+    pub sum: &'a dyn Fn(&mut [f64]),
 }
 
 /// State of a rule across iterations.
@@ -192,7 +195,9 @@ impl RhoAdapter {
                 gg += dg * dg;
                 gl += dg * dl[i];
             }
-            let (ll_hat, ll) = (dot(dlh, dlh), dot(dl, dl));
+            let mut sums = [hh, hl, gg, gl, dot(dlh, dlh), dot(dl, dl)];
+            (it.sum)(&mut sums);
+            let [hh, hl, gg, gl, ll_hat, ll] = sums;
             let curvature = |ff: f64, fl: f64, lam: f64| -> Option<(f64, f64)> {
                 if ff <= 0.0 || lam <= 0.0 || fl <= 0.0 {
                     return None;

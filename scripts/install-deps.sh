@@ -9,7 +9,8 @@ set -euo pipefail
 
 debs=(cmake pkg-config libhdf5-dev libsuitesparse-dev libeigen3-dev valgrind fonts-dejavu-core
       libbullet-dev libode-dev python3-matplotlib
-      libsiconos-numerics-dev python3-siconos python3-h5py python3-numpy python3-scipy)
+      libsiconos-numerics-dev python3-siconos python3-h5py python3-numpy python3-scipy
+      openmpi-bin libopenmpi-dev libclang-dev)
 missing=()
 for d in "${debs[@]}"; do
   dpkg-query -W -f='${Status}' "$d" 2>/dev/null | grep -q "install ok installed" || missing+=("$d")

@@ -28,6 +28,8 @@ mod cone;
 mod contact;
 mod coupled;
 mod csc;
+#[cfg(feature = "mpi")]
+pub mod distributed;
 #[cfg(feature = "fclib")]
 pub mod fclib;
 /// The C API (`include/cadmm.h`): opaque handles, result codes, panic boundary. From Rust,

@@ -22,6 +22,13 @@ pub use gram_product::GramProduct;
 pub use param_matrix::ParamMatrix;
 pub use pcg::{Gram, GramPcg, PcgStop};
 pub use sparse_factor::{FactorKind, SparseFactor};
+// What the distributed v-update system shares with one process's iterative backend.
+#[cfg(feature = "mpi")]
+pub(crate) use contact_columns::ContactColumns;
+#[cfg(feature = "mpi")]
+pub(crate) use pcg::{conjugate_gradients, CgSystem, CgWork, PcgOutcome, BLOCK_MAX};
+#[cfg(feature = "mpi")]
+pub(crate) use workers::Workers;
 
 use crate::types::Error;
 use param_matrix::Assembly;

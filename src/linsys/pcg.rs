@@ -12,7 +12,7 @@ use super::block_diagonal::components;
 use super::contact_columns::ContactColumns;
 use super::dense::{cholesky, cholesky_solve};
 use super::workers::Workers;
-use crate::csc::{dot, norm2, CscMatrix, RowMajor};
+use crate::csc::{dot, CscMatrix, RowMajor};
 use crate::tuning::{PARALLEL_MIN_ENTRIES, PCG_TRUE_RESIDUAL_EVERY};
 use crate::types::Error;
 use std::ops::Range;
@@ -352,44 +352,13 @@ impl GramPcg {
                 r[i] = b[i] - q[i];
             }
         }
-        let mut out = PcgOutcome {
-            iterations: 0,
-            residual: norm2(&r),
-            converged: false,
+        let mut work = CgWork {
+            r: &mut r,
+            z: &mut z,
+            p: &mut p,
+            q: &mut q,
         };
-        let tol = stop.tol.max(stop.reduction * out.residual).max(stop.floor);
-        if out.residual > tol {
-            self.precondition(&r, &mut z);
-            p.copy_from_slice(&z);
-            let mut rz = dot(&r, &z);
-            while out.iterations < stop.max_iterations {
-                self.apply(a, &p, &mut q);
-                let curvature = dot(&p, &q);
-                if !(curvature > 0.0 && curvature.is_finite()) {
-                    x.fill(f64::NAN);
-                    out.residual = f64::NAN;
-                    break;
-                }
-                let alpha = rz / curvature;
-                for i in 0..x.len() {
-                    x[i] += alpha * p[i];
-                    r[i] -= alpha * q[i];
-                }
-                out.iterations += 1;
-                out.residual = norm2(&r);
-                if out.residual <= tol || stop.deadline.is_some_and(|d| Instant::now() >= d) {
-                    break;
-                }
-                self.precondition(&r, &mut z);
-                let rz_next = dot(&r, &z);
-                let beta = rz_next / rz;
-                rz = rz_next;
-                for i in 0..p.len() {
-                    p[i] = z[i] + beta * p[i];
-                }
-            }
-        }
-        out.converged = out.residual <= tol;
+        let out = conjugate_gradients(&mut Bound { pcg: self, a }, x, &mut work, &stop);
         self.iterations += out.iterations;
         self.last_b.copy_from_slice(b);
         self.last_x.copy_from_slice(x);
@@ -398,6 +367,96 @@ impl GramPcg {
         }
         (self.r, self.z, self.p, self.q) = (r, z, p, q);
         out
+    }
+}
+
+/// What conjugate gradients need of a symmetric positive definite system: its product,
+/// its preconditioner and the dot product of its space (summed over every process that
+/// holds a part of the vectors, for a distributed system).
+pub(crate) trait CgSystem {
+    /// `y = A x`.
+    fn apply(&mut self, x: &[f64], y: &mut [f64]);
+    /// `z = P^-1 r`.
+    fn precondition(&self, r: &[f64], z: &mut [f64]);
+    /// `a . b`.
+    fn dot(&self, a: &[f64], b: &[f64]) -> f64;
+}
+
+/// The vectors of a conjugate-gradient solve; `r` holds `b - A x` of the start.
+pub(crate) struct CgWork<'a> {
+    pub r: &'a mut [f64],
+    pub z: &'a mut [f64],
+    pub p: &'a mut [f64],
+    pub q: &'a mut [f64],
+}
+
+/// Preconditioned conjugate gradients on `system` from `x`, whose residual `work.r`
+/// holds, until `stop` says. A breakdown (a non-positive or non-finite curvature, which
+/// round-off alone can cause on a positive definite system) leaves `x` non-finite, so
+/// that the caller's finiteness check ends the solve with a status.
+pub(crate) fn conjugate_gradients(
+    system: &mut impl CgSystem,
+    x: &mut [f64],
+    work: &mut CgWork,
+    stop: &PcgStop,
+) -> PcgOutcome {
+    let CgWork { r, z, p, q } = work;
+    let mut out = PcgOutcome {
+        iterations: 0,
+        residual: system.dot(r, r).sqrt(),
+        converged: false,
+    };
+    let tol = stop.tol.max(stop.reduction * out.residual).max(stop.floor);
+    if out.residual > tol {
+        system.precondition(r, z);
+        p.copy_from_slice(z);
+        let mut rz = system.dot(r, z);
+        while out.iterations < stop.max_iterations {
+            system.apply(p, q);
+            let curvature = system.dot(p, q);
+            if !(curvature > 0.0 && curvature.is_finite()) {
+                x.fill(f64::NAN);
+                out.residual = f64::NAN;
+                break;
+            }
+            let alpha = rz / curvature;
+            for i in 0..x.len() {
+                x[i] += alpha * p[i];
+                r[i] -= alpha * q[i];
+            }
+            out.iterations += 1;
+            out.residual = system.dot(r, r).sqrt();
+            if out.residual <= tol || stop.deadline.is_some_and(|d| Instant::now() >= d) {
+                break;
+            }
+            system.precondition(r, z);
+            let rz_next = system.dot(r, z);
+            let beta = rz_next / rz;
+            rz = rz_next;
+            for i in 0..p.len() {
+                p[i] = z[i] + beta * p[i];
+            }
+        }
+    }
+    out.converged = out.residual <= tol;
+    out
+}
+
+/// The one-process operator `M + rho H D H^T` with its data.
+struct Bound<'a, 'b> {
+    pcg: &'a mut GramPcg,
+    a: Gram<'b>,
+}
+
+impl CgSystem for Bound<'_, '_> {
+    fn apply(&mut self, x: &[f64], y: &mut [f64]) {
+        self.pcg.apply(self.a, x, y);
+    }
+    fn precondition(&self, r: &[f64], z: &mut [f64]) {
+        self.pcg.precondition(r, z);
+    }
+    fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
+        dot(a, b)
     }
 }
 

@@ -1,0 +1,296 @@
+//! Who holds which velocities. A process's vectors over the velocities hold its own
+//! bodies' velocities first, then copies of the velocities of the other processes' bodies
+//! that its contacts touch, grouped by owner in rank order and by id within an owner.
+//! [`Halo::share`] brings the copies up to date from their owners; [`Halo::gather_back`]
+//! adds what a process accumulated in its copies into the owners' entries, each owner
+//! adding the contributions in rank order. [`Halo::sum_across`] adds up partial sums,
+//! also in rank order: the results depend on the number of processes, not on timing.
+
+use super::problem::RankError;
+use mpi::datatype::{Partition, PartitionMut};
+use mpi::topology::{Communicator, SimpleCommunicator};
+use mpi::traits::*;
+use mpi::Count;
+use std::collections::HashMap;
+
+/// Where a body's velocities are in this process's vectors.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Place {
+    /// First velocity.
+    pub first: usize,
+    /// Number of velocities.
+    pub dofs: usize,
+}
+
+/// The exchange plan between the processes sharing a problem.
+pub(crate) struct Halo {
+    comm: SimpleCommunicator,
+    /// Velocities this process owns (the first entries of its vectors).
+    owned: usize,
+    /// Owned velocities each process holds copies of: `send[send_displs[r]..]`, in the
+    /// order of that process's copies.
+    send: Vec<usize>,
+    send_counts: Vec<Count>,
+    send_displs: Vec<Count>,
+    /// Copies received from each process (after the owned velocities, in rank order).
+    recv_counts: Vec<Count>,
+    recv_displs: Vec<Count>,
+    /// Where each body this process touches (owned or copied) sits, by global id.
+    places: HashMap<u64, Place>,
+    /// The bodies' places in the order of this process's vectors.
+    layout: Vec<Place>,
+    out: Vec<f64>,
+    back: Vec<f64>,
+}
+
+impl Halo {
+    /// The plan for a process that owns `bodies` (global ids, with their `dofs`) and
+    /// whose contacts touch the bodies `touched` (global ids, any order, repeats
+    /// allowed). Every process gets the same error when a body is owned twice or a touched
+    /// body by no process.
+    pub fn new(
+        comm: &SimpleCommunicator,
+        bodies: &[u64],
+        dofs: &[usize],
+        touched: impl Iterator<Item = (usize, u64)>,
+    ) -> Result<Self, RankError> {
+        let comm = comm.duplicate();
+        let size = comm.size() as usize;
+        let rank = comm.rank() as usize;
+        // Every process learns every body's owner and place there.
+        let ids = all_gather_varcount(&comm, bodies);
+        let dofs_all =
+            all_gather_varcount(&comm, &dofs.iter().map(|&k| k as u64).collect::<Vec<_>>());
+        let mut owner: HashMap<u64, (usize, Place)> = HashMap::with_capacity(ids.len());
+        for (r, (ids, dofs)) in ids.iter().zip(&dofs_all).enumerate() {
+            let mut first = 0;
+            for (k, (&id, &d)) in ids.iter().zip(dofs).enumerate() {
+                let place = Place {
+                    first,
+                    dofs: d as usize,
+                };
+                if let Some((other, _)) = owner.insert(id, (r, place)) {
+                    return Err(RankError {
+                        rank: r,
+                        message: format!("bodies[{k}]: body id {id} is owned by rank {other} too"),
+                    });
+                }
+                first += d as usize;
+            }
+        }
+        let owned: usize = dofs.iter().sum();
+        // The bodies to copy, by owner then id; an unknown one is this process's error.
+        let mut copied: Vec<(usize, u64)> = Vec::new();
+        let mut unknown = None;
+        for (entry, id) in touched {
+            match owner.get(&id) {
+                Some(&(r, _)) if r != rank => copied.push((r, id)),
+                Some(_) => {}
+                None => {
+                    unknown.get_or_insert((entry, id));
+                }
+            }
+        }
+        agree(
+            &comm,
+            unknown
+                .map(|(entry, id)| format!("h_body[{entry}]: body id {id} is owned by no process")),
+        )?;
+        copied.sort_unstable();
+        copied.dedup();
+        let mut places: HashMap<u64, Place> = HashMap::new();
+        let mut layout = Vec::with_capacity(bodies.len() + copied.len());
+        let mut first = 0;
+        for (&id, &d) in bodies.iter().zip(dofs) {
+            let place = Place { first, dofs: d };
+            places.insert(id, place);
+            layout.push(place);
+            first += d;
+        }
+        // Ask each owner for its bodies' velocities, as indices into the owner's vectors.
+        let mut wanted = vec![Vec::new(); size];
+        for &(r, id) in &copied {
+            let place = owner[&id].1;
+            let copy = Place {
+                first,
+                dofs: place.dofs,
+            };
+            places.insert(id, copy);
+            layout.push(copy);
+            first += place.dofs;
+            wanted[r].extend((place.first..place.first + place.dofs).map(|i| i as u64));
+        }
+        let recv_counts: Vec<Count> = wanted.iter().map(|w| w.len() as Count).collect();
+        let recv_displs = displacements(&recv_counts);
+        let requests: Vec<u64> = wanted.concat();
+        let mut send_counts = vec![0 as Count; size];
+        comm.all_to_all_into(&recv_counts[..], &mut send_counts[..]);
+        let send_displs = displacements(&send_counts);
+        let mut send = vec![0u64; send_counts.iter().sum::<Count>() as usize];
+        comm.all_to_all_varcount_into(
+            &Partition::new(&requests[..], &recv_counts[..], &recv_displs[..]),
+            &mut PartitionMut::new(&mut send[..], &send_counts[..], &send_displs[..]),
+        );
+        Ok(Self {
+            out: vec![0.0; send.len()],
+            back: vec![0.0; requests.len()],
+            send: send.into_iter().map(|i| i as usize).collect(),
+            comm,
+            owned,
+            send_counts,
+            send_displs,
+            recv_counts,
+            recv_displs,
+            places,
+            layout,
+        })
+    }
+
+    /// Velocities this process owns.
+    pub fn owned(&self) -> usize {
+        self.owned
+    }
+
+    /// Length of this process's vectors: owned velocities, then copies.
+    pub fn local(&self) -> usize {
+        self.owned + self.back.len()
+    }
+
+    /// Where the body `id` sits in this process's vectors (it owns or copies it).
+    pub fn place(&self, id: u64) -> Place {
+        self.places[&id]
+    }
+
+    /// The bodies' places, in the order of this process's vectors.
+    pub fn layout(&self) -> &[Place] {
+        &self.layout
+    }
+
+    /// The communicator of the processes sharing the problem.
+    pub fn comm(&self) -> &SimpleCommunicator {
+        &self.comm
+    }
+
+    /// Writes the owners' values into the copies of `x` (of length [`Halo::local`]).
+    pub fn share(&mut self, x: &mut [f64]) {
+        for (o, &i) in self.out.iter_mut().zip(&self.send) {
+            *o = x[i];
+        }
+        let (owned, copies) = x.split_at_mut(self.owned);
+        let _ = owned;
+        self.comm.all_to_all_varcount_into(
+            &Partition::new(&self.out[..], &self.send_counts[..], &self.send_displs[..]),
+            &mut PartitionMut::new(copies, &self.recv_counts[..], &self.recv_displs[..]),
+        );
+    }
+
+    /// Adds the copies of `y` into their owners' entries (each owner in rank order of the
+    /// processes that hold copies) and zeroes the copies.
+    pub fn gather_back(&mut self, y: &mut [f64]) {
+        let copies = &mut y[self.owned..];
+        self.back.copy_from_slice(copies);
+        copies.fill(0.0);
+        self.comm.all_to_all_varcount_into(
+            &Partition::new(&self.back[..], &self.recv_counts[..], &self.recv_displs[..]),
+            &mut PartitionMut::new(
+                &mut self.out[..],
+                &self.send_counts[..],
+                &self.send_displs[..],
+            ),
+        );
+        for (&i, o) in self.send.iter().zip(&self.out) {
+            y[i] += o;
+        }
+    }
+
+    /// [`Halo::gather_back`] for vectors with `width` entries per velocity (velocity `i`'s
+    /// are `width i..width (i + 1)`); rare (the preconditioner's blocks), so it allocates.
+    pub fn gather_back_wide(&self, y: &mut [f64], width: usize) {
+        let scale = |c: &[Count]| -> Vec<Count> { c.iter().map(|n| n * width as Count).collect() };
+        let (recv_counts, recv_displs) = (scale(&self.recv_counts), scale(&self.recv_displs));
+        let (send_counts, send_displs) = (scale(&self.send_counts), scale(&self.send_displs));
+        let copies = &mut y[width * self.owned..];
+        let back = copies.to_vec();
+        copies.fill(0.0);
+        let mut out = vec![0.0; width * self.send.len()];
+        self.comm.all_to_all_varcount_into(
+            &Partition::new(&back[..], &recv_counts[..], &recv_displs[..]),
+            &mut PartitionMut::new(&mut out[..], &send_counts[..], &send_displs[..]),
+        );
+        for (&i, o) in self.send.iter().zip(out.chunks_exact(width)) {
+            for (a, b) in y[width * i..width * (i + 1)].iter_mut().zip(o) {
+                *a += b;
+            }
+        }
+    }
+
+    /// Adds up, entry by entry, every process's `partial`, in rank order.
+    pub fn sum_across(&self, partial: &mut [f64]) {
+        sum_across(&self.comm, partial);
+    }
+}
+
+/// Adds up, entry by entry, every process's `partial`, in rank order (a gather, then the
+/// same sum on every process: no reduction tree whose order could vary).
+pub(crate) fn sum_across(comm: &SimpleCommunicator, partial: &mut [f64]) {
+    if comm.size() == 1 || partial.is_empty() {
+        return;
+    }
+    let mut all = vec![0.0; partial.len() * comm.size() as usize];
+    comm.all_gather_into(partial, &mut all[..]);
+    partial.fill(0.0);
+    for part in all.chunks_exact(partial.len()) {
+        for (p, v) in partial.iter_mut().zip(part) {
+            *p += v;
+        }
+    }
+}
+
+/// Every process learns whether one failed: the lowest failing rank's message becomes
+/// every process's error.
+pub(crate) fn agree(comm: &SimpleCommunicator, failure: Option<String>) -> Result<(), RankError> {
+    let mut failed = vec![0u8; comm.size() as usize];
+    comm.all_gather_into(&u8::from(failure.is_some()), &mut failed[..]);
+    let Some(rank) = failed.iter().position(|&f| f != 0) else {
+        return Ok(());
+    };
+    let root = comm.process_at_rank(rank as i32);
+    let mut bytes = failure.map(String::into_bytes).unwrap_or_default();
+    let mut len = bytes.len() as u64;
+    root.broadcast_into(&mut len);
+    bytes.resize(len as usize, 0);
+    root.broadcast_into(&mut bytes[..]);
+    Err(RankError {
+        rank,
+        message: String::from_utf8_lossy(&bytes).into_owned(),
+    })
+}
+
+/// Every process's `mine`, rank after rank.
+fn all_gather_varcount(comm: &SimpleCommunicator, mine: &[u64]) -> Vec<Vec<u64>> {
+    let mut counts = vec![0 as Count; comm.size() as usize];
+    comm.all_gather_into(&(mine.len() as Count), &mut counts[..]);
+    let displs = displacements(&counts);
+    let mut all = vec![0u64; counts.iter().sum::<Count>() as usize];
+    comm.all_gather_varcount_into(
+        mine,
+        &mut PartitionMut::new(&mut all[..], &counts[..], &displs[..]),
+    );
+    counts
+        .iter()
+        .zip(&displs)
+        .map(|(&n, &d)| all[d as usize..(d + n) as usize].to_vec())
+        .collect()
+}
+
+/// Offsets of consecutive runs of `counts` entries.
+fn displacements(counts: &[Count]) -> Vec<Count> {
+    counts
+        .iter()
+        .scan(0, |at, &n| {
+            let d = *at;
+            *at += n;
+            Some(d)
+        })
+        .collect()
+}

@@ -1,0 +1,579 @@
+//! The v-update system `M + rho H D H^T` of a distributed problem, solved by the same
+//! preconditioned conjugate gradients as one process's iterative backend
+//! ([`crate::linsys::GramPcg`]): each process applies its own bodies' `M` and its own
+//! contacts' `H` (after [`Halo::share`]: their copies of other processes' velocities),
+//! and [`Halo::gather_back`] hands each owner what the others added to its velocities.
+//! The block-Jacobi preconditioner is each owned body's block of the whole system,
+//! contacts of every process included.
+
+use super::halo::{agree, Halo};
+use super::problem::{RankError, RankProblem};
+use crate::csc::{dot, CscMatrix};
+use crate::linsys::dense::{cholesky, cholesky_solve};
+use crate::linsys::{
+    conjugate_gradients, CgSystem, CgWork, ContactColumns, PcgOutcome, PcgStop, Workers, BLOCK_MAX,
+};
+use mpi::topology::SimpleCommunicator;
+
+/// `M + rho H D H^T` over the processes sharing a problem, with its preconditioner.
+pub(crate) struct DistributedGram {
+    halo: Halo,
+    /// This process's contacts' columns of H, over its vectors (owned velocities, copies).
+    h: ContactColumns,
+    /// Owned bodies: first velocity and velocities, and the offset of their dense blocks.
+    blocks: Vec<(usize, usize, usize)>,
+    /// Column-major mass blocks (symmetric part), `(H D H^T)_BB` of every process's
+    /// contacts, and the inverse of `M_BB + rho (H D H^T)_BB`, block after block.
+    mass: Vec<f64>,
+    gram: Vec<f64>,
+    inverse: Vec<f64>,
+    active: Vec<f64>,
+    rho: f64,
+    serial: Workers,
+    /// Vectors over owned velocities and copies, for the products.
+    x_local: Vec<f64>,
+    y_local: Vec<f64>,
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    q: Vec<f64>,
+}
+
+impl DistributedGram {
+    /// The system of `part`, this process's part of a problem shared over `comm` (every
+    /// process calls it with its own part); `active` marks the contact rows in it.
+    pub fn new(
+        comm: &SimpleCommunicator,
+        part: &RankProblem,
+        active: Vec<f64>,
+    ) -> Result<Self, RankError> {
+        agree(comm, part.validate().err().map(|e| e.to_string()))?;
+        let touched = part.h_body.iter().copied().enumerate();
+        let halo = Halo::new(comm, &part.bodies, &part.dofs, touched)?;
+        let h = local_h(&halo, part);
+        agree(comm, h.as_ref().err().cloned())?;
+        let h = h.expect("agreed");
+        let mut blocks = Vec::with_capacity(part.bodies.len());
+        let (mut first, mut offset) = (0, 0);
+        for &k in &part.dofs {
+            blocks.push((first, k, offset));
+            first += k;
+            offset += k * k;
+        }
+        let mut mass = part.mass.clone();
+        for &(_, k, at) in &blocks {
+            let m = &mut mass[at..at + k * k];
+            for j in 0..k {
+                for i in 0..j {
+                    let s = 0.5 * (m[j * k + i] + m[i * k + j]);
+                    (m[j * k + i], m[i * k + j]) = (s, s);
+                }
+            }
+        }
+        let local = halo.local();
+        let owned = halo.owned();
+        let mut system = Self {
+            gram: block_gram(&halo, &h, &active),
+            inverse: vec![0.0; mass.len()],
+            h: ContactColumns::new(&h),
+            halo,
+            blocks,
+            mass,
+            active,
+            rho: f64::NAN,
+            serial: Workers::serial(),
+            x_local: vec![0.0; local],
+            y_local: vec![0.0; local],
+            r: vec![0.0; owned],
+            z: vec![0.0; owned],
+            p: vec![0.0; owned],
+            q: vec![0.0; owned],
+        };
+        system.blocks_for_gram();
+        Ok(system)
+    }
+
+    /// Moves `block_gram`'s per-velocity columns (owned part) into dense blocks.
+    fn blocks_for_gram(&mut self) {
+        let columns = std::mem::take(&mut self.gram);
+        self.gram = vec![0.0; self.mass.len()];
+        for &(first, k, at) in &self.blocks {
+            for j in 0..k {
+                let column = &columns[BLOCK_MAX * (first + j)..];
+                self.gram[at + j * k..at + (j + 1) * k].copy_from_slice(&column[..k]);
+            }
+        }
+    }
+
+    /// Factorizes the owned blocks of `M + rho H D H^T`; every process gets the error
+    /// when one block is not positive definite.
+    pub fn set_rho(&mut self, rho: f64) -> Result<(), RankError> {
+        let mut failed = None;
+        for (b, &(_, k, at)) in self.blocks.iter().enumerate() {
+            let mut factor: Vec<f64> = (at..at + k * k)
+                .map(|i| self.mass[i] + rho * self.gram[i])
+                .collect();
+            if !cholesky(&mut factor, k) {
+                failed.get_or_insert(b);
+                continue;
+            }
+            for (j, column) in self.inverse[at..at + k * k].chunks_exact_mut(k).enumerate() {
+                column.fill(0.0);
+                column[j] = 1.0;
+                cholesky_solve(&factor, k, column);
+            }
+        }
+        agree(
+            self.halo.comm(),
+            failed.map(|b| format!("bodies[{b}]: M + rho H H^T is not positive definite")),
+        )?;
+        self.rho = rho;
+        Ok(())
+    }
+
+    /// Solves the system for `x` (owned velocities) from the `x` given, until `stop`.
+    pub fn solve(&mut self, b: &[f64], x: &mut [f64], stop: &PcgStop) -> PcgOutcome {
+        let (mut r, mut z) = (std::mem::take(&mut self.r), std::mem::take(&mut self.z));
+        let (mut p, mut q) = (std::mem::take(&mut self.p), std::mem::take(&mut self.q));
+        self.apply(x, &mut q);
+        for i in 0..r.len() {
+            r[i] = b[i] - q[i];
+        }
+        let mut work = CgWork {
+            r: &mut r,
+            z: &mut z,
+            p: &mut p,
+            q: &mut q,
+        };
+        let out = conjugate_gradients(self, x, &mut work, stop);
+        (self.r, self.z, self.p, self.q) = (r, z, p, q);
+        out
+    }
+}
+
+impl CgSystem for DistributedGram {
+    fn apply(&mut self, x: &[f64], y: &mut [f64]) {
+        let owned = x.len();
+        self.x_local[..owned].copy_from_slice(x);
+        self.halo.share(&mut self.x_local);
+        let (blocks, mass, x_local) = (&self.blocks, &self.mass, &self.x_local);
+        let mass_product = |first: usize, part: &mut [f64]| {
+            part.fill(0.0);
+            for &(start, k, at) in blocks {
+                if start >= first + part.len() || start + k <= first {
+                    continue;
+                }
+                for j in 0..k {
+                    let xj = x_local[start + j];
+                    for i in 0..k {
+                        if let Some(yi) =
+                            (start + i).checked_sub(first).and_then(|i| part.get_mut(i))
+                        {
+                            *yi += mass[at + j * k + i] * xj;
+                        }
+                    }
+                }
+            }
+        };
+        self.h.gram(
+            &self.x_local,
+            &self.active,
+            self.rho,
+            &mut self.y_local,
+            &self.serial,
+            mass_product,
+        );
+        self.halo.gather_back(&mut self.y_local);
+        y.copy_from_slice(&self.y_local[..owned]);
+    }
+
+    fn precondition(&self, r: &[f64], z: &mut [f64]) {
+        for &(first, k, at) in &self.blocks {
+            let inverse = &self.inverse[at..at + k * k];
+            for i in 0..k {
+                z[first + i] = (0..k).map(|j| inverse[j * k + i] * r[first + j]).sum();
+            }
+        }
+    }
+
+    fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
+        let mut sum = [dot(a, b)];
+        self.halo.sum_across(&mut sum);
+        sum[0]
+    }
+}
+
+/// This process's contacts' H over its vectors, or what is wrong in it.
+fn local_h(halo: &Halo, part: &RankProblem) -> Result<CscMatrix, String> {
+    let mut rows = Vec::with_capacity(part.h_body.len());
+    for (e, (&id, &dof)) in part.h_body.iter().zip(&part.h_dof).enumerate() {
+        let place = halo.place(id);
+        if dof >= place.dofs {
+            return Err(format!(
+                "h_dof[{e}]: velocity {dof} of body id {id}, which has {}",
+                place.dofs
+            ));
+        }
+        rows.push(place.first + dof);
+    }
+    CscMatrix::new(
+        "H",
+        halo.local(),
+        3 * part.n_contacts(),
+        part.h_colptr.clone(),
+        rows,
+        part.h_values.clone(),
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// `(H D H^T)_BB` of every body this process owns, all processes' contacts added: per
+/// velocity `i` of a body starting at `first`, `BLOCK_MAX` entries whose `j`-th is the
+/// entry `(first + j, i)`; computed over owned and copied bodies, copies handed back.
+fn block_gram(halo: &Halo, h: &CscMatrix, active: &[f64]) -> Vec<f64> {
+    // The body (first velocity) of each velocity in this process's vectors.
+    let mut body_first = vec![0; halo.local()];
+    for place in halo.layout() {
+        body_first[place.first..place.first + place.dofs].fill(place.first);
+    }
+    let mut columns = vec![0.0; BLOCK_MAX * halo.local()];
+    for c in 0..h.ncols() {
+        if active[c] == 0.0 {
+            continue;
+        }
+        for (i, a) in h.col(c) {
+            for (j, b) in h.col(c) {
+                if body_first[i] == body_first[j] {
+                    columns[BLOCK_MAX * i + (j - body_first[i])] += a * b;
+                }
+            }
+        }
+    }
+    halo.gather_back_wide(&mut columns, BLOCK_MAX);
+    columns
+}
+
+#[cfg(test)]
+mod tests {
+    //! Each test runs itself again under `mpirun` (Open MPI's, with `--oversubscribe`: this
+    //! machine may have fewer cores than processes), where the environment variable
+    //! [`CHILD`] tells it to do the work of one process; the parent checks the exit codes
+    //! and what the processes printed.
+    use super::*;
+    use mpi::traits::Communicator;
+    use nalgebra::{DMatrix, DVector};
+    use std::process::Command;
+
+    const CHILD: &str = "CADMM_MPI_CHILD";
+
+    /// Runs this binary's test `name` on `np` processes; their standard output.
+    fn mpirun(name: &str, np: usize) -> String {
+        let out = Command::new("timeout")
+            .args(["300", "mpirun", "--oversubscribe", "-np", &np.to_string()])
+            .arg(std::env::current_exe().expect("the test binary"))
+            .args([name, "--exact", "--nocapture", "--test-threads", "1"])
+            .env(CHILD, "1")
+            .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+            .output()
+            .expect("mpirun runs (Debian: openmpi-bin)");
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "mpirun -np {np} {name}: {:?}\n{stdout}\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        stdout
+    }
+
+    /// A pile of spheres on a jittered `nx x ny x nz` grid: contacts between neighbours
+    /// along each axis and with the floor under the lowest layer. Per body: id, grid x
+    /// index, mass; per contact: the two bodies (the second absent at the floor) and the
+    /// three columns of each body's block of H (6 entries each).
+    struct Pile {
+        bodies: Vec<(u64, usize, f64)>,
+        contacts: Vec<(usize, Option<usize>, Block, Block)>,
+    }
+
+    /// A body's three columns of a contact's H block, six velocities each.
+    type Block = [[f64; 6]; 3];
+
+    fn pile(nx: usize, ny: usize, nz: usize) -> Pile {
+        let mut seed = 12345u64;
+        let mut rand = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let index = |x: usize, y: usize, z: usize| (z * ny + y) * nx + x;
+        let mut bodies = Vec::new();
+        let mut centre = Vec::new();
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    let id = 1000 + 7 * index(x, y, z) as u64;
+                    bodies.push((id, x, 0.5 + 1.5 * rand()));
+                    let jitter = [0.1 * rand(), 0.1 * rand(), 0.1 * rand()];
+                    centre.push([
+                        x as f64 + jitter[0],
+                        y as f64 + jitter[1],
+                        z as f64 + jitter[2],
+                    ]);
+                }
+            }
+        }
+        let block = |arm: [f64; 3], frame: [[f64; 3]; 3], sign: f64| {
+            frame.map(|d| {
+                let t = [
+                    arm[1] * d[2] - arm[2] * d[1],
+                    arm[2] * d[0] - arm[0] * d[2],
+                    arm[0] * d[1] - arm[1] * d[0],
+                ];
+                [d[0], d[1], d[2], t[0], t[1], t[2]].map(|v| sign * v)
+            })
+        };
+        let frame = |n: [f64; 3]| {
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            let n = n.map(|v| v / len);
+            let a = if n[0].abs() < 0.9 {
+                [1.0, 0.0, 0.0]
+            } else {
+                [0.0, 1.0, 0.0]
+            };
+            let t1 = [
+                n[1] * a[2] - n[2] * a[1],
+                n[2] * a[0] - n[0] * a[2],
+                n[0] * a[1] - n[1] * a[0],
+            ];
+            let l1 = (t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]).sqrt();
+            let t1 = t1.map(|v| v / l1);
+            let t2 = [
+                n[1] * t1[2] - n[2] * t1[1],
+                n[2] * t1[0] - n[0] * t1[2],
+                n[0] * t1[1] - n[1] * t1[0],
+            ];
+            [n, t1, t2]
+        };
+        let mut contacts = Vec::new();
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    let a = index(x, y, z);
+                    if z == 0 {
+                        let f = frame([0.0, 0.0, 1.0]);
+                        contacts.push((a, None, block([0.0, 0.0, -0.5], f, 1.0), [[0.0; 6]; 3]));
+                    }
+                    for (dx, dy, dz) in [(1, 0, 0), (0, 1, 0), (0, 0, 1)] {
+                        if x + dx < nx && y + dy < ny && z + dz < nz {
+                            let b = index(x + dx, y + dy, z + dz);
+                            let n: [f64; 3] = std::array::from_fn(|k| centre[b][k] - centre[a][k]);
+                            let f = frame(n);
+                            let half = f[0].map(|v| 0.5 * v);
+                            contacts.push((
+                                a,
+                                Some(b),
+                                block(half, f, -1.0),
+                                block(half.map(|v| -v), f, 1.0),
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+        Pile { bodies, contacts }
+    }
+
+    /// The part of `pile` the process `rank` of `size` owns: the bodies of its slab of x
+    /// indices, and the contacts whose first body it owns.
+    fn part(pile: &Pile, nx: usize, rank: usize, size: usize) -> RankProblem {
+        let owner = |b: usize| pile.bodies[b].1 * size / nx;
+        let mut p = RankProblem {
+            h_colptr: vec![0],
+            ..Default::default()
+        };
+        for (b, &(id, _, m)) in pile.bodies.iter().enumerate() {
+            if owner(b) != rank {
+                continue;
+            }
+            p.bodies.push(id);
+            p.dofs.push(6);
+            let inertia = 0.1 * m;
+            for j in 0..6 {
+                for i in 0..6 {
+                    p.mass.push(if i != j {
+                        0.0
+                    } else if i < 3 {
+                        m
+                    } else {
+                        inertia
+                    });
+                }
+            }
+            p.f.extend((0..6).map(|k| ((id as f64) * 0.37 + k as f64).sin()));
+        }
+        for (a, b, block_a, block_b) in &pile.contacts {
+            if owner(*a) != rank {
+                continue;
+            }
+            for d in 0..3 {
+                for (body, block) in [(Some(*a), block_a), (*b, block_b)] {
+                    let Some(body) = body else { continue };
+                    for (dof, &v) in block[d].iter().enumerate() {
+                        p.h_body.push(pile.bodies[body].0);
+                        p.h_dof.push(dof);
+                        p.h_values.push(v);
+                    }
+                }
+                p.h_colptr.push(p.h_body.len());
+            }
+            p.w.extend([0.0; 3]);
+            p.mu.push(0.3);
+        }
+        p
+    }
+
+    /// `(M + rho H H^T) x = f` of the whole pile, solved densely (nalgebra's Cholesky).
+    fn reference(pile: &Pile, nx: usize, rho: f64) -> Vec<f64> {
+        let whole = part(pile, nx, 0, 1);
+        let n = whole.n_velocities();
+        let at: std::collections::HashMap<u64, usize> = whole
+            .bodies
+            .iter()
+            .enumerate()
+            .map(|(b, &id)| (id, 6 * b))
+            .collect();
+        let mut a = DMatrix::<f64>::zeros(n, n);
+        for (b, _) in whole.bodies.iter().enumerate() {
+            for j in 0..6 {
+                for i in 0..6 {
+                    a[(6 * b + i, 6 * b + j)] = whole.mass[36 * b + 6 * j + i];
+                }
+            }
+        }
+        for c in 0..3 * whole.n_contacts() {
+            let mut column = DVector::<f64>::zeros(n);
+            for e in whole.h_colptr[c]..whole.h_colptr[c + 1] {
+                column[at[&whole.h_body[e]] + whole.h_dof[e]] += whole.h_values[e];
+            }
+            a += rho * &column * column.transpose();
+        }
+        let x = a
+            .cholesky()
+            .expect("positive definite")
+            .solve(&DVector::from_vec(whole.f.clone()));
+        x.as_slice().to_vec()
+    }
+
+    #[test]
+    fn every_process_count_solves_the_whole_system() {
+        let name = "distributed::system::tests::every_process_count_solves_the_whole_system";
+        if std::env::var_os(CHILD).is_none() {
+            for np in [1, 2, 4] {
+                let out = mpirun(name, np);
+                assert_eq!(
+                    out.matches("agrees with the one-process solve").count(),
+                    np,
+                    "{out}"
+                );
+            }
+            // Bitwise the same from run to run at a given number of processes.
+            let checksums = |out: String| -> Vec<String> {
+                let mut lines: Vec<String> = out
+                    .lines()
+                    .filter(|l| l.contains("checksum"))
+                    .map(String::from)
+                    .collect();
+                lines.sort();
+                lines
+            };
+            let (first, second) = (checksums(mpirun(name, 2)), checksums(mpirun(name, 2)));
+            assert_eq!(first.len(), 2);
+            assert_eq!(first, second);
+            return;
+        }
+        let universe = mpi::initialize().expect("MPI starts");
+        let world = universe.world();
+        let (rank, size) = (world.rank() as usize, world.size() as usize);
+        let (nx, rho) = (8, 0.7);
+        let pile = pile(nx, 4, 4);
+        let mine = part(&pile, nx, rank, size);
+        let mut system =
+            DistributedGram::new(&world, &mine, vec![1.0; 3 * mine.n_contacts()]).expect("valid");
+        system.set_rho(rho).expect("positive definite");
+        let mut x = vec![0.0; mine.n_velocities()];
+        let stop = PcgStop {
+            tol: 0.0,
+            reduction: 1e-13,
+            floor: 0.0,
+            max_iterations: 1000,
+            deadline: None,
+        };
+        let outcome = system.solve(&mine.f, &mut x, &stop);
+        assert!(outcome.converged, "{outcome:?}");
+        // The reference, at this process's bodies.
+        let whole = reference(&pile, nx, rho);
+        let all_ids: Vec<u64> = pile.bodies.iter().map(|b| b.0).collect();
+        let mut worst: f64 = 0.0;
+        for (b, id) in mine.bodies.iter().enumerate() {
+            let at = 6 * all_ids.iter().position(|i| i == id).expect("a pile body");
+            for k in 0..6 {
+                worst = worst.max((x[6 * b + k] - whole[at + k]).abs());
+            }
+        }
+        let scale = whole.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(
+            worst <= 1e-9 * scale,
+            "rank {rank}: off by {worst:e} (scale {scale:e})"
+        );
+        let bits = x.iter().fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits());
+        println!(
+            "rank {rank}: {} iterations, agrees with the one-process solve",
+            outcome.iterations
+        );
+        println!("rank {rank} checksum {bits:016x}");
+    }
+
+    #[test]
+    fn a_bad_part_is_every_process_error() {
+        let name = "distributed::system::tests::a_bad_part_is_every_process_error";
+        if std::env::var_os(CHILD).is_none() {
+            let out = mpirun(name, 2);
+            assert_eq!(out.matches("same error").count(), 4, "{out}");
+            return;
+        }
+        let universe = mpi::initialize().expect("MPI starts");
+        let world = universe.world();
+        let (rank, size) = (world.rank() as usize, world.size() as usize);
+        let pile = pile(4, 2, 2);
+        // Rank 1 names a body no process owns; then rank 0 hands a NaN.
+        let mut mine = part(&pile, 4, rank, size);
+        if rank == 1 {
+            mine.h_body[4] = 999_999;
+        }
+        let active = vec![1.0; 3 * mine.n_contacts()];
+        let error = DistributedGram::new(&world, &mine, active.clone())
+            .err()
+            .expect("an error");
+        assert_eq!(error.rank, 1);
+        assert_eq!(
+            error.message,
+            "h_body[4]: body id 999999 is owned by no process"
+        );
+        println!("rank {rank}: same error: {error}");
+        let mut mine = part(&pile, 4, rank, size);
+        if rank == 0 {
+            mine.f[3] = f64::NAN;
+        }
+        let error = DistributedGram::new(&world, &mine, active)
+            .err()
+            .expect("an error");
+        assert_eq!(error.rank, 0);
+        assert!(
+            error.message.contains("f") && error.message.contains('3'),
+            "{error}"
+        );
+        println!("rank {rank}: same error: {error}");
+    }
+}

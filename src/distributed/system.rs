@@ -453,11 +453,13 @@ mod tests {
             }
         }
         for c in 0..3 * whole.n_contacts() {
-            let mut column = DVector::<f64>::zeros(n);
-            for e in whole.h_colptr[c]..whole.h_colptr[c + 1] {
-                column[at[&whole.h_body[e]] + whole.h_dof[e]] += whole.h_values[e];
+            let column = whole.h_colptr[c]..whole.h_colptr[c + 1];
+            let row = |e: usize| at[&whole.h_body[e]] + whole.h_dof[e];
+            for e in column.clone() {
+                for f in column.clone() {
+                    a[(row(e), row(f))] += rho * whole.h_values[e] * whole.h_values[f];
+                }
             }
-            a += rho * &column * column.transpose();
         }
         let x = a
             .cholesky()

@@ -9,7 +9,7 @@
 use super::halo::{agree, Halo};
 use super::problem::{RankError, RankProblem};
 use crate::csc::{dot, CscMatrix};
-use crate::linsys::dense::{cholesky, cholesky_solve};
+use crate::linsys::dense::spd_inverse;
 use crate::linsys::{
     conjugate_gradients, CgSystem, CgWork, ContactColumns, PcgOutcome, PcgStop, Workers, BLOCK_MAX,
 };
@@ -113,14 +113,8 @@ impl DistributedGram {
             let mut factor: Vec<f64> = (at..at + k * k)
                 .map(|i| self.mass[i] + rho * self.gram[i])
                 .collect();
-            if !cholesky(&mut factor, k) {
+            if !spd_inverse(&mut factor, k, &mut self.inverse[at..at + k * k]) {
                 failed.get_or_insert(b);
-                continue;
-            }
-            for (j, column) in self.inverse[at..at + k * k].chunks_exact_mut(k).enumerate() {
-                column.fill(0.0);
-                column[j] = 1.0;
-                cholesky_solve(&factor, k, column);
             }
         }
         agree(

@@ -122,6 +122,22 @@ pub(crate) fn is_symmetric(a: &[f64], n: usize) -> bool {
     (0..n).all(|j| (0..j).all(|i| (a[i + j * n] - a[j + i * n]).abs() <= tol))
 }
 
+/// The inverse of a symmetric positive definite column-major `n x n` matrix into
+/// `inverse`, through its Cholesky factor (which overwrites `a`); false when `a` is not
+/// positive definite. (Applying an inverse is one small product where a factor takes two
+/// triangular solves: the preconditioners apply theirs at every iteration.)
+pub(crate) fn spd_inverse(a: &mut [f64], n: usize, inverse: &mut [f64]) -> bool {
+    if !cholesky(a, n) {
+        return false;
+    }
+    for (j, column) in inverse.chunks_exact_mut(n).enumerate() {
+        column.fill(0.0);
+        column[j] = 1.0;
+        cholesky_solve(a, n, column);
+    }
+    true
+}
+
 /// Solves with the factor of [`cholesky`], in place.
 pub(crate) fn cholesky_solve(a: &[f64], n: usize, x: &mut [f64]) {
     // Column slices, so that the inner loops run without index checks (small islands

@@ -10,7 +10,7 @@
 
 use super::block_diagonal::components;
 use super::contact_columns::ContactColumns;
-use super::dense::{cholesky, cholesky_solve};
+use super::dense::spd_inverse;
 use super::workers::Workers;
 use crate::csc::{dot, CscMatrix, RowMajor};
 use crate::tuning::{PARALLEL_MIN_ENTRIES, PCG_TRUE_RESIDUAL_EVERY};
@@ -238,17 +238,11 @@ impl GramPcg {
             {
                 *f = m + rho * g;
             }
-            if !cholesky(&mut factor[..k * k], k) {
+            if !spd_inverse(&mut factor[..k * k], k, &mut self.inverse[lo..hi]) {
                 self.rho = f64::NAN;
                 return Err(Error::NotPositiveDefinite {
                     field: "M + rho H H^T",
                 });
-            }
-            let inverse = &mut self.inverse[lo..hi];
-            for (j, column) in inverse.chunks_exact_mut(k).enumerate() {
-                column.fill(0.0);
-                column[j] = 1.0;
-                cholesky_solve(&factor[..k * k], k, column);
             }
         }
         self.rho = rho;

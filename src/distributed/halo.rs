@@ -11,6 +11,7 @@ use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::{Communicator, SimpleCommunicator};
 use mpi::traits::*;
 use mpi::Count;
+use std::cell::RefCell;
 use std::collections::HashMap;
 
 /// Where a body's velocities are in this process's vectors.
@@ -41,6 +42,8 @@ pub(crate) struct Halo {
     layout: Vec<Place>,
     out: Vec<f64>,
     back: Vec<f64>,
+    /// Every process's partial sums, for [`Halo::sum_across`].
+    gathered: RefCell<Vec<f64>>,
 }
 
 impl Halo {
@@ -143,6 +146,7 @@ impl Halo {
             recv_displs,
             places,
             layout,
+            gathered: RefCell::new(Vec::new()),
         })
     }
 
@@ -176,11 +180,13 @@ impl Halo {
         for (o, &i) in self.out.iter_mut().zip(&self.send) {
             *o = x[i];
         }
-        let (owned, copies) = x.split_at_mut(self.owned);
-        let _ = owned;
         self.comm.all_to_all_varcount_into(
             &Partition::new(&self.out[..], &self.send_counts[..], &self.send_displs[..]),
-            &mut PartitionMut::new(copies, &self.recv_counts[..], &self.recv_displs[..]),
+            &mut PartitionMut::new(
+                &mut x[self.owned..],
+                &self.recv_counts[..],
+                &self.recv_displs[..],
+            ),
         );
     }
 
@@ -224,24 +230,25 @@ impl Halo {
         }
     }
 
-    /// Adds up, entry by entry, every process's `partial`, in rank order.
+    /// Adds up, entry by entry, every process's `partial`, in rank order (a gather, then
+    /// the same sum on every process: no reduction tree whose order could vary). The
+    /// gather buffer grows to the longest sum asked for, then is reused.
     pub fn sum_across(&self, partial: &mut [f64]) {
-        sum_across(&self.comm, partial);
-    }
-}
-
-/// Adds up, entry by entry, every process's `partial`, in rank order (a gather, then the
-/// same sum on every process: no reduction tree whose order could vary).
-pub(crate) fn sum_across(comm: &SimpleCommunicator, partial: &mut [f64]) {
-    if comm.size() == 1 || partial.is_empty() {
-        return;
-    }
-    let mut all = vec![0.0; partial.len() * comm.size() as usize];
-    comm.all_gather_into(partial, &mut all[..]);
-    partial.fill(0.0);
-    for part in all.chunks_exact(partial.len()) {
-        for (p, v) in partial.iter_mut().zip(part) {
-            *p += v;
+        let size = self.comm.size() as usize;
+        if size == 1 || partial.is_empty() {
+            return;
+        }
+        let mut all = self.gathered.borrow_mut();
+        if all.len() < size * partial.len() {
+            all.resize(size * partial.len(), 0.0);
+        }
+        let all = &mut all[..size * partial.len()];
+        self.comm.all_gather_into(&*partial, all);
+        partial.fill(0.0);
+        for part in all.chunks_exact(partial.len()) {
+            for (p, v) in partial.iter_mut().zip(part) {
+                *p += v;
+            }
         }
     }
 }

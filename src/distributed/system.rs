@@ -33,10 +33,7 @@ pub(crate) struct DistributedGram {
     /// Vectors over owned velocities and copies, for the products.
     x_local: Vec<f64>,
     y_local: Vec<f64>,
-    r: Vec<f64>,
-    z: Vec<f64>,
-    p: Vec<f64>,
-    q: Vec<f64>,
+    work: CgWork,
 }
 
 impl DistributedGram {
@@ -72,8 +69,8 @@ impl DistributedGram {
         }
         let local = halo.local();
         let owned = halo.owned();
-        let mut system = Self {
-            gram: block_gram(&halo, &h, &active),
+        Ok(Self {
+            gram: block_gram(&halo, &h, &active, &blocks),
             inverse: vec![0.0; mass.len()],
             h: ContactColumns::new(&h),
             halo,
@@ -84,25 +81,8 @@ impl DistributedGram {
             serial: Workers::serial(),
             x_local: vec![0.0; local],
             y_local: vec![0.0; local],
-            r: vec![0.0; owned],
-            z: vec![0.0; owned],
-            p: vec![0.0; owned],
-            q: vec![0.0; owned],
-        };
-        system.blocks_for_gram();
-        Ok(system)
-    }
-
-    /// Moves `block_gram`'s per-velocity columns (owned part) into dense blocks.
-    fn blocks_for_gram(&mut self) {
-        let columns = std::mem::take(&mut self.gram);
-        self.gram = vec![0.0; self.mass.len()];
-        for &(first, k, at) in &self.blocks {
-            for j in 0..k {
-                let column = &columns[BLOCK_MAX * (first + j)..];
-                self.gram[at + j * k..at + (j + 1) * k].copy_from_slice(&column[..k]);
-            }
-        }
+            work: CgWork::new(owned),
+        })
     }
 
     /// Factorizes the owned blocks of `M + rho H D H^T`; every process gets the error
@@ -110,10 +90,11 @@ impl DistributedGram {
     pub fn set_rho(&mut self, rho: f64) -> Result<(), RankError> {
         let mut failed = None;
         for (b, &(_, k, at)) in self.blocks.iter().enumerate() {
-            let mut factor: Vec<f64> = (at..at + k * k)
-                .map(|i| self.mass[i] + rho * self.gram[i])
-                .collect();
-            if !spd_inverse(&mut factor, k, &mut self.inverse[at..at + k * k]) {
+            let mut factor = [0.0; BLOCK_MAX * BLOCK_MAX];
+            for (f, i) in factor.iter_mut().zip(at..at + k * k) {
+                *f = self.mass[i] + rho * self.gram[i];
+            }
+            if !spd_inverse(&mut factor[..k * k], k, &mut self.inverse[at..at + k * k]) {
                 failed.get_or_insert(b);
             }
         }
@@ -127,20 +108,10 @@ impl DistributedGram {
 
     /// Solves the system for `x` (owned velocities) from the `x` given, until `stop`.
     pub fn solve(&mut self, b: &[f64], x: &mut [f64], stop: &PcgStop) -> PcgOutcome {
-        let (mut r, mut z) = (std::mem::take(&mut self.r), std::mem::take(&mut self.z));
-        let (mut p, mut q) = (std::mem::take(&mut self.p), std::mem::take(&mut self.q));
-        self.apply(x, &mut q);
-        for i in 0..r.len() {
-            r[i] = b[i] - q[i];
-        }
-        let mut work = CgWork {
-            r: &mut r,
-            z: &mut z,
-            p: &mut p,
-            q: &mut q,
-        };
+        let mut work = std::mem::take(&mut self.work);
+        work.start(self, b, x);
         let out = conjugate_gradients(self, x, &mut work, stop);
-        (self.r, self.z, self.p, self.q) = (r, z, p, q);
+        self.work = work;
         out
     }
 }
@@ -221,10 +192,16 @@ fn local_h(halo: &Halo, part: &RankProblem) -> Result<CscMatrix, String> {
     .map_err(|e| e.to_string())
 }
 
-/// `(H D H^T)_BB` of every body this process owns, all processes' contacts added: per
-/// velocity `i` of a body starting at `first`, `BLOCK_MAX` entries whose `j`-th is the
-/// entry `(first + j, i)`; computed over owned and copied bodies, copies handed back.
-fn block_gram(halo: &Halo, h: &CscMatrix, active: &[f64]) -> Vec<f64> {
+/// `(H D H^T)_BB` of every body this process owns (`blocks`: first velocity, velocities,
+/// offset of its column-major block), all processes' contacts added: accumulated per
+/// velocity `i` of a body starting at `first` in `BLOCK_MAX` entries whose `j`-th is the
+/// entry `(first + j, i)`, over owned and copied bodies, copies handed back to owners.
+fn block_gram(
+    halo: &Halo,
+    h: &CscMatrix,
+    active: &[f64],
+    blocks: &[(usize, usize, usize)],
+) -> Vec<f64> {
     // The body (first velocity) of each velocity in this process's vectors.
     let mut body_first = vec![0; halo.local()];
     for place in halo.layout() {
@@ -244,7 +221,13 @@ fn block_gram(halo: &Halo, h: &CscMatrix, active: &[f64]) -> Vec<f64> {
         }
     }
     halo.gather_back_wide(&mut columns, BLOCK_MAX);
-    columns
+    let mut gram = Vec::with_capacity(blocks.iter().map(|&(_, k, _)| k * k).sum());
+    for &(first, k, _) in blocks {
+        for column in columns[BLOCK_MAX * first..].chunks_exact(BLOCK_MAX).take(k) {
+            gram.extend_from_slice(&column[..k]);
+        }
+    }
+    gram
 }
 
 #[cfg(test)]

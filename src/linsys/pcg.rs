@@ -81,10 +81,7 @@ pub struct GramPcg {
     gram: Vec<f64>,
     inverse: Vec<f64>,
     rho: f64,
-    r: Vec<f64>,
-    z: Vec<f64>,
-    p: Vec<f64>,
-    q: Vec<f64>,
+    work: CgWork,
     /// The last solve's right-hand side and answer: while the operator stays, the next
     /// solve's starting residual is `r + b_next - b` (the recurrence's residual), which
     /// saves a product.
@@ -136,10 +133,7 @@ impl GramPcg {
             gram: vec![0.0; size],
             inverse: vec![0.0; size],
             rho: f64::NAN,
-            r: vec![0.0; n],
-            z: vec![0.0; n],
-            p: vec![0.0; n],
-            q: vec![0.0; n],
+            work: CgWork::new(n),
             last_b: vec![0.0; n],
             last_x: vec![0.0; n],
             recurrences_left: 0,
@@ -325,33 +319,20 @@ impl GramPcg {
         }
     }
 
-    /// Solves `A(rho) x = b` from the `x` given (a warm start) until `stop` says. A breakdown (a non-positive or non-finite curvature, which
-    /// round-off alone can cause on a positive definite system) leaves `x` non-finite, so
-    /// that the caller's finiteness check ends the solve with a status.
+    /// Solves `A(rho) x = b` from the `x` given (a warm start) until `stop` says (see
+    /// [`conjugate_gradients`]).
     pub fn solve(&mut self, a: Gram, b: &[f64], x: &mut [f64], stop: PcgStop) -> PcgOutcome {
-        let mut r = std::mem::take(&mut self.r);
-        let mut z = std::mem::take(&mut self.z);
-        let mut p = std::mem::take(&mut self.p);
-        let mut q = std::mem::take(&mut self.q);
+        let mut work = std::mem::take(&mut self.work);
         if self.recurrences_left > 0 && x == self.last_x.as_slice() {
             // b - A x = (b - b_last) + (b_last - A x_last).
             self.recurrences_left -= 1;
-            for i in 0..r.len() {
-                r[i] += b[i] - self.last_b[i];
+            for i in 0..work.r.len() {
+                work.r[i] += b[i] - self.last_b[i];
             }
         } else {
             self.recurrences_left = PCG_TRUE_RESIDUAL_EVERY;
-            self.apply(a, x, &mut q);
-            for i in 0..r.len() {
-                r[i] = b[i] - q[i];
-            }
+            work.start(&mut Bound { pcg: self, a }, b, x);
         }
-        let mut work = CgWork {
-            r: &mut r,
-            z: &mut z,
-            p: &mut p,
-            q: &mut q,
-        };
         let out = conjugate_gradients(&mut Bound { pcg: self, a }, x, &mut work, &stop);
         self.iterations += out.iterations;
         self.last_b.copy_from_slice(b);
@@ -359,7 +340,7 @@ impl GramPcg {
         if !out.residual.is_finite() {
             self.recurrences_left = 0;
         }
-        (self.r, self.z, self.p, self.q) = (r, z, p, q);
+        self.work = work;
         out
     }
 }
@@ -376,12 +357,34 @@ pub(crate) trait CgSystem {
     fn dot(&self, a: &[f64], b: &[f64]) -> f64;
 }
 
-/// The vectors of a conjugate-gradient solve; `r` holds `b - A x` of the start.
-pub(crate) struct CgWork<'a> {
-    pub r: &'a mut [f64],
-    pub z: &'a mut [f64],
-    pub p: &'a mut [f64],
-    pub q: &'a mut [f64],
+/// The vectors of a conjugate-gradient solve, made once per system (a solve does not
+/// allocate); `r` holds `b - A x` of the start.
+#[derive(Default)]
+pub(crate) struct CgWork {
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    q: Vec<f64>,
+}
+
+impl CgWork {
+    /// Vectors of length `n`.
+    pub fn new(n: usize) -> Self {
+        Self {
+            r: vec![0.0; n],
+            z: vec![0.0; n],
+            p: vec![0.0; n],
+            q: vec![0.0; n],
+        }
+    }
+
+    /// `r = b - A x`, by one product.
+    pub fn start(&mut self, system: &mut impl CgSystem, b: &[f64], x: &[f64]) {
+        system.apply(x, &mut self.q);
+        for i in 0..self.r.len() {
+            self.r[i] = b[i] - self.q[i];
+        }
+    }
 }
 
 /// Preconditioned conjugate gradients on `system` from `x`, whose residual `work.r`
@@ -395,6 +398,7 @@ pub(crate) fn conjugate_gradients(
     stop: &PcgStop,
 ) -> PcgOutcome {
     let CgWork { r, z, p, q } = work;
+    let (r, z, p, q) = (&mut r[..], &mut z[..], &mut p[..], &mut q[..]);
     let mut out = PcgOutcome {
         iterations: 0,
         residual: system.dot(r, r).sqrt(),

@@ -14,7 +14,7 @@
 //! `(r, v)`, so the measure then says whether `(r, v)` can be completed into a solution.
 
 use crate::cone::{de_saxce, get3, project_cone};
-use crate::csc::norm2;
+use crate::csc::{dot, norm2};
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
 use crate::types::Solution;
 
@@ -31,6 +31,12 @@ fn relative(num: f64, den: f64) -> f64 {
 
 /// Norm of the natural-map residual `r - P_K(r - (u + Phi(u)))` over all contacts.
 pub fn complementarity_residual(r: &[f64], u: &[f64], mu: &[f64]) -> f64 {
+    complementarity_sq(r, u, mu).sqrt()
+}
+
+/// The square of [`complementarity_residual`], a sum over contacts (which processes
+/// sharing a problem add up).
+pub(crate) fn complementarity_sq(r: &[f64], u: &[f64], mu: &[f64]) -> f64 {
     let mut sum = 0.0;
     for (i, &m) in mu.iter().enumerate() {
         let ri = get3(r, i);
@@ -38,7 +44,7 @@ pub fn complementarity_residual(r: &[f64], u: &[f64], mu: &[f64]) -> f64 {
         let p = project_cone([ri[0] - ut[0], ri[1] - ut[1], ri[2] - ut[2]], m);
         sum += (ri[0] - p[0]).powi(2) + (ri[1] - p[1]).powi(2) + (ri[2] - p[2]).powi(2);
     }
-    sum.sqrt()
+    sum
 }
 
 fn all_finite(x: &[f64]) -> bool {
@@ -181,23 +187,81 @@ pub(crate) struct GlobalTerms<'a> {
 }
 
 impl GlobalTerms<'_> {
-    /// `||-M v + H r + f|| / max(||f||, ||M v||, ||H r||) + ||r - P_K(r - (u + Phi(u)))|| /
-    /// max(||u||, ||r||)`, denominators floored by `floors`; records the denominators in
-    /// `scales`.
+    /// The measure of these products ([`GlobalSums::error`]).
     pub fn error(&self, floors: Floors, scales: &mut Scales) -> f64 {
         let mut eq = 0.0;
         for ((mv, hr), f) in self.mv.iter().zip(self.hr).zip(self.f) {
             eq += (-mv + hr + f).powi(2);
         }
-        let scale = norm2(self.f).max(norm2(self.mv)).max(norm2(self.hr));
+        GlobalSums {
+            equation: eq,
+            f: dot(self.f, self.f),
+            mv: dot(self.mv, self.mv),
+            hr: dot(self.hr, self.hr),
+            complementarity: complementarity_sq(self.r, self.u, self.mu),
+            u: dot(self.u, self.u),
+            r: dot(self.r, self.r),
+        }
+        .error(floors, scales)
+    }
+}
+
+/// The squared norms the equation and contact terms of the global measure are made of:
+/// sums over velocities and contacts, which processes sharing a problem add up before
+/// [`GlobalSums::error`] makes the measure of them.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct GlobalSums {
+    /// `||-M v + H r + f||^2`.
+    pub equation: f64,
+    /// `||f||^2`, `||M v||^2`, `||H r||^2`.
+    pub f: f64,
+    pub mv: f64,
+    pub hr: f64,
+    /// `||r - P_K(r - (u + Phi(u)))||^2`.
+    pub complementarity: f64,
+    /// `||u||^2`, `||r||^2`.
+    pub u: f64,
+    pub r: f64,
+}
+
+impl GlobalSums {
+    /// As an array, for a sum across processes.
+    pub fn to_array(self) -> [f64; 7] {
+        [
+            self.equation,
+            self.f,
+            self.mv,
+            self.hr,
+            self.complementarity,
+            self.u,
+            self.r,
+        ]
+    }
+
+    /// From [`GlobalSums::to_array`]'s order.
+    pub fn from_array(a: [f64; 7]) -> Self {
+        let [equation, f, mv, hr, complementarity, u, r] = a;
+        Self {
+            equation,
+            f,
+            mv,
+            hr,
+            complementarity,
+            u,
+            r,
+        }
+    }
+
+    /// `||-M v + H r + f|| / max(||f||, ||M v||, ||H r||) + ||r - P_K(r - (u + Phi(u)))|| /
+    /// max(||u||, ||r||)`, denominators floored by `floors`; records the denominators in
+    /// `scales`.
+    pub fn error(&self, floors: Floors, scales: &mut Scales) -> f64 {
+        let scale = self.f.sqrt().max(self.mv.sqrt()).max(self.hr.sqrt());
         scales.equation = scale;
-        let e1 = relative(eq.sqrt(), scale.max(floors.equation));
-        let scale = norm2(self.u).max(norm2(self.r));
+        let e1 = relative(self.equation.sqrt(), scale.max(floors.equation));
+        let scale = self.u.sqrt().max(self.r.sqrt());
         scales.contact = scale;
-        let e2 = relative(
-            complementarity_residual(self.r, self.u, self.mu),
-            scale.max(floors.contact),
-        );
+        let e2 = relative(self.complementarity.sqrt(), scale.max(floors.contact));
         finite_or_infinite(e1 + e2)
     }
 }

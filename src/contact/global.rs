@@ -324,7 +324,7 @@ fn system_matrix(
 /// denominator), which that residual adds to: then it no longer matters for the
 /// tolerance. The error measured at the end is of the inexact iterate, so it stays honest
 /// either way.
-fn inexact_stop(
+pub(crate) fn inexact_stop(
     last_error: f64,
     equation_scale: f64,
     rhs_norm: f64,

@@ -7,6 +7,9 @@ mod global;
 mod initial_rho;
 mod local;
 
+#[cfg(feature = "mpi")]
+pub(crate) use global::inexact_stop;
+
 pub(crate) use global::GlobalSplitting;
 pub(crate) use initial_rho::initial_rho;
 pub(crate) use local::LocalSplitting;
@@ -112,7 +115,7 @@ pub(crate) fn contact_form(
 
 /// De Saxce shift of each contact's normal component: `mu ||u_T||`, written into `phi`
 /// (normal slots only). Returns the relative change of the shift.
-fn de_saxce_shift(u: &[f64], mu: &[f64], phi: &mut [f64]) {
+pub(crate) fn de_saxce_shift(u: &[f64], mu: &[f64], phi: &mut [f64]) {
     for (i, &m) in mu.iter().enumerate() {
         set3(phi, i, [de_saxce_term(get3(u, i), m), 0.0, 0.0]);
     }
@@ -153,9 +156,15 @@ fn count_rows(active: &[f64]) -> usize {
 
 /// Initial shift (docs/algorithms.md §5): `Phi(1) / (||Phi(1)|| ||A||_F)`, where `A` is `H`
 /// (global) or `W` (local).
-fn initial_shift(mu: &[f64], frobenius: f64, phi: &mut [f64]) {
-    phi.fill(0.0);
+pub(crate) fn initial_shift(mu: &[f64], frobenius: f64, phi: &mut [f64]) {
     let norm_mu = mu.iter().map(|m| m * m).sum::<f64>().sqrt();
+    initial_shift_of(mu, norm_mu, frobenius, phi);
+}
+
+/// [`initial_shift`] with `||mu||` given (a distributed problem's, summed across
+/// processes).
+pub(crate) fn initial_shift_of(mu: &[f64], norm_mu: f64, frobenius: f64, phi: &mut [f64]) {
+    phi.fill(0.0);
     if norm_mu == 0.0 || frobenius == 0.0 {
         return;
     }

@@ -230,6 +230,14 @@ impl Halo {
         }
     }
 
+    /// The largest of every process's `x` (exact, whatever the order).
+    pub fn max_across(&self, x: f64) -> f64 {
+        let mut max = x;
+        self.comm
+            .all_reduce_into(&x, &mut max, mpi::collective::SystemOperation::max());
+        max
+    }
+
     /// Adds up, entry by entry, every process's `partial`, in rank order (a gather, then
     /// the same sum on every process: no reduction tree whose order could vary). The
     /// gather buffer grows to the longest sum asked for, then is reused.

@@ -12,14 +12,16 @@
 //! process owns) makes every process return the same [`RankError`], which names that
 //! process and the item: no process is left waiting on the others.
 //!
-//! Built so far: the parts, the exchange plan and the v-update system with its
-//! conjugate-gradient solve, tested on 1, 2 and 4 processes against a one-process solve.
-//! The ADMM solve that drives them is the next step; until it lands, only the tests call
-//! into these parts.
-#![cfg_attr(not(test), allow(dead_code))]
+//! [`DistributedSolver`] runs the engine's ADMM on the process's part
+//! ([`splitting`]): the matrix-free v-update by conjugate gradients across the processes
+//! ([`system`]), projections and dual updates per owned contact, the stopping test and the
+//! error measure of the whole problem on sums across processes.
 
 mod halo;
 mod problem;
+mod solver;
+mod splitting;
 mod system;
 
 pub use problem::{RankError, RankProblem};
+pub use solver::DistributedSolver;

@@ -1,6 +1,7 @@
 //! A process's part of a global contact problem, checked on its own.
 
 use crate::linsys::BLOCK_MAX;
+use crate::problem::GlobalProblem;
 use crate::types::Error;
 use std::fmt;
 
@@ -57,6 +58,101 @@ impl RankProblem {
     /// Owned velocities.
     pub fn n_velocities(&self) -> usize {
         self.f.len()
+    }
+
+    /// The part of a whole problem that the process `rank` owns, for a host (or a test)
+    /// that holds the whole problem on every process: body `b` (id `b`) has the
+    /// velocities `dofs[b]`, consecutive and in order, and belongs to `body_rank[b]`;
+    /// contact `i` belongs to `contact_rank[i]`. M must be block diagonal over the bodies.
+    pub fn split(
+        whole: &GlobalProblem,
+        dofs: &[usize],
+        body_rank: &[usize],
+        contact_rank: &[usize],
+        rank: usize,
+    ) -> Result<Self, Error> {
+        let n = whole.n();
+        if dofs.iter().sum::<usize>() != n {
+            return Err(Error::Dimension {
+                field: "dofs",
+                expected: n,
+                found: dofs.iter().sum(),
+            });
+        }
+        let bodies = dofs.len();
+        let dimension = |field, expected, found| Error::Dimension {
+            field,
+            expected,
+            found,
+        };
+        if body_rank.len() != bodies {
+            return Err(dimension("body_rank", bodies, body_rank.len()));
+        }
+        if contact_rank.len() != whole.n_contacts() {
+            return Err(dimension(
+                "contact_rank",
+                whole.n_contacts(),
+                contact_rank.len(),
+            ));
+        }
+        if whole.n_joints() > 0 {
+            return Err(Error::Unsupported(
+                "a problem with joints cannot be shared out among processes".into(),
+            ));
+        }
+        // Each velocity's body and the body's first velocity.
+        let mut body_of = Vec::with_capacity(n);
+        let mut first = Vec::with_capacity(bodies);
+        for (b, &k) in dofs.iter().enumerate() {
+            first.push(body_of.len());
+            body_of.extend(std::iter::repeat_n(b, k));
+        }
+        let mut part = Self {
+            h_colptr: vec![0],
+            ..Self::default()
+        };
+        let mut blocks: Vec<Option<Vec<f64>>> = vec![None; bodies];
+        for j in 0..n {
+            for (i, v) in whole.m.col(j) {
+                let b = body_of[j];
+                if body_of[i] != b {
+                    return Err(Error::InvalidCsc {
+                        field: "M",
+                        reason: format!(
+                            "entry ({i}, {j}) joins two bodies: M is not block diagonal over dofs"
+                        ),
+                    });
+                }
+                if body_rank[b] == rank {
+                    let k = dofs[b];
+                    let block = blocks[b].get_or_insert_with(|| vec![0.0; k * k]);
+                    block[(j - first[b]) * k + (i - first[b])] = v;
+                }
+            }
+        }
+        for (b, block) in blocks.into_iter().enumerate() {
+            if body_rank[b] != rank {
+                continue;
+            }
+            let k = dofs[b];
+            part.bodies.push(b as u64);
+            part.dofs.push(k);
+            part.mass.extend(block.unwrap_or_else(|| vec![0.0; k * k]));
+            part.f.extend_from_slice(&whole.f[first[b]..first[b] + k]);
+        }
+        for (c, _) in contact_rank.iter().enumerate().filter(|&(_, &r)| r == rank) {
+            for j in 3 * c..3 * c + 3 {
+                for (i, v) in whole.h.col(j) {
+                    part.h_body.push(body_of[i] as u64);
+                    part.h_dof.push(i - first[body_of[i]]);
+                    part.h_values.push(v);
+                }
+                part.h_colptr.push(part.h_body.len());
+            }
+            part.w.extend_from_slice(&whole.w[3 * c..3 * c + 3]);
+            part.mu.push(whole.mu[c]);
+        }
+        Ok(part)
     }
 
     /// Checks what this part can check alone: sizes, the structure of H's columns, and

@@ -14,6 +14,7 @@ use crate::linsys::{
     conjugate_gradients, CgSystem, CgWork, ContactColumns, PcgOutcome, PcgStop, Workers, BLOCK_MAX,
 };
 use mpi::topology::SimpleCommunicator;
+use std::time::Instant;
 
 /// `M + rho H D H^T` over the processes sharing a problem, with its preconditioner.
 pub(crate) struct DistributedGram {
@@ -116,6 +117,30 @@ impl DistributedGram {
     }
 }
 
+impl DistributedGram {
+    /// The exchange plan (for the sums of the solve around the system).
+    pub fn halo(&self) -> &Halo {
+        &self.halo
+    }
+
+    /// `out = H t` over the owned velocities (`t` over this process's contact rows): the
+    /// other processes' contributions to owned bodies added in.
+    pub fn h_mul(&mut self, t: &[f64], out: &mut [f64]) {
+        self.y_local.fill(0.0);
+        self.h.mul_add(t, &mut self.y_local, &self.serial);
+        self.halo.gather_back(&mut self.y_local);
+        out.copy_from_slice(&self.y_local[..out.len()]);
+    }
+
+    /// `out = H^T v` over this process's contact rows, from the owned velocities `v`
+    /// (the copies fetched from their owners).
+    pub fn h_t_mul(&mut self, v: &[f64], out: &mut [f64]) {
+        self.x_local[..v.len()].copy_from_slice(v);
+        self.halo.share(&mut self.x_local);
+        self.h.mul_t(&self.x_local, out, &self.serial);
+    }
+}
+
 impl CgSystem for DistributedGram {
     fn apply(&mut self, x: &[f64], y: &mut [f64]) {
         let owned = x.len();
@@ -165,6 +190,12 @@ impl CgSystem for DistributedGram {
         let mut sum = [dot(a, b)];
         self.halo.sum_across(&mut sum);
         sum[0]
+    }
+
+    fn past(&self, deadline: Instant) -> bool {
+        let mut late = [f64::from(u8::from(Instant::now() >= deadline))];
+        self.halo.sum_across(&mut late);
+        late[0] > 0.0
     }
 }
 

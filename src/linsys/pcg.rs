@@ -355,6 +355,11 @@ pub(crate) trait CgSystem {
     fn precondition(&self, r: &[f64], z: &mut [f64]);
     /// `a . b`.
     fn dot(&self, a: &[f64], b: &[f64]) -> f64;
+    /// Whether the clock is past `deadline` (for every process sharing the system, when
+    /// the system is distributed: they all stop at the same iteration).
+    fn past(&self, deadline: Instant) -> bool {
+        Instant::now() >= deadline
+    }
 }
 
 /// The vectors of a conjugate-gradient solve, made once per system (a solve does not
@@ -424,7 +429,7 @@ pub(crate) fn conjugate_gradients(
             }
             out.iterations += 1;
             out.residual = system.dot(r, r).sqrt();
-            if out.residual <= tol || stop.deadline.is_some_and(|d| Instant::now() >= d) {
+            if out.residual <= tol || stop.deadline.is_some_and(|d| system.past(d)) {
                 break;
             }
             system.precondition(r, z);

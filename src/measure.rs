@@ -226,6 +226,7 @@ pub(crate) struct GlobalSums {
 
 impl GlobalSums {
     /// As an array, for a sum across processes.
+    #[cfg(feature = "mpi")]
     pub fn to_array(self) -> [f64; 7] {
         [
             self.equation,
@@ -239,6 +240,7 @@ impl GlobalSums {
     }
 
     /// From [`GlobalSums::to_array`]'s order.
+    #[cfg(feature = "mpi")]
     pub fn from_array(a: [f64; 7]) -> Self {
         let [equation, f, mv, hr, complementarity, u, r] = a;
         Self {

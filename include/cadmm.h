@@ -41,6 +41,15 @@
 #define CADMM_VERSION_PATCH 0
 #define CADMM_VERSION_STRING "0.1.0"
 
+#if defined(CADMM_WITH_MPI)
+/**
+ * A solver for one problem shared out among MPI processes, each process holding its own
+ * handle. Opaque; created by `cadmm_distributed_solver_new`, released by
+ * `cadmm_distributed_solver_free`.
+ */
+typedef struct cadmm_distributed_solver cadmm_distributed_solver;
+#endif
+
 /**
  * A frictional contact problem, global (M, H, f, w, mu, optional joints G, b) or local
  * (W, q, mu). Opaque; created by `cadmm_problem_new_global`, `cadmm_problem_new_local` or
@@ -69,38 +78,67 @@ typedef struct cadmm_solver cadmm_solver;
  */
 typedef int32_t cadmm_result;
 
+#if defined(CADMM_WITH_MPI)
 /**
- * A sparse matrix in compressed sparse column form, 0-based, borrowed for the duration of
- * the call that receives it (the library copies what it keeps).
- *
- * `colptr` (never NULL) has `ncols + 1` entries, starts at 0 and does not decrease;
- * `rowind` and `values` have `colptr[ncols]` entries each (NULL allowed when that is 0).
- * Row indices lie in `[0, nrows)`, need not be sorted within a column, and must not repeat
- * within a column. Values must be finite. Symmetric matrices (M, W) are given in full, both
- * triangles.
+ * A process's part of a global problem shared out among MPI processes. Arrays are read
+ * during `cadmm_distributed_solver_new` only; their lengths follow from the counts.
+ * Bodies are named by global ids (any `uint64_t`, each owned by exactly one process);
+ * the velocities of this process's bodies are numbered body after body.
  */
-typedef struct cadmm_csc {
+typedef struct cadmm_rank_part {
     /**
-     * Number of rows.
+     * Bodies this process owns.
      */
-    size_t nrows;
+    size_t n_bodies;
     /**
-     * Number of columns.
+     * Their global ids (`n_bodies`).
      */
-    size_t ncols;
+    const uint64_t *body_ids;
     /**
-     * Column pointers, `ncols + 1` entries.
+     * Their velocities: 1 to 12 each, 6 for a rigid body (`n_bodies`).
      */
-    const int64_t *colptr;
+    const size_t *body_dofs;
     /**
-     * Row index of each entry, `colptr[ncols]` entries.
+     * Each body's mass matrix, `dofs x dofs` column-major, body after body (the sum of
+     * `dofs^2`).
      */
-    const int64_t *rowind;
+    const double *mass;
     /**
-     * Value of each entry, `colptr[ncols]` entries.
+     * Free-motion term, one entry per owned velocity (the sum of `dofs`).
      */
-    const double *values;
-} cadmm_csc;
+    const double *f;
+    /**
+     * Contacts this process owns.
+     */
+    size_t n_contacts;
+    /**
+     * Start of each of the `3 n_contacts` columns of H (normal first) in the entry arrays
+     * below (`3 n_contacts + 1`, from 0).
+     */
+    const size_t *h_colptr;
+    /**
+     * Each entry's body, by global id: one this process owns or another one does
+     * (`h_colptr[3 n_contacts]`).
+     */
+    const uint64_t *h_body;
+    /**
+     * Each entry's velocity within its body, from 0 (`h_colptr[3 n_contacts]`).
+     */
+    const size_t *h_dof;
+    /**
+     * Each entry's value (`h_colptr[3 n_contacts]`).
+     */
+    const double *h_values;
+    /**
+     * Relative velocity offset `w` (`3 n_contacts`).
+     */
+    const double *w;
+    /**
+     * Friction coefficients (`n_contacts`).
+     */
+    const double *mu;
+} cadmm_rank_part;
+#endif
 
 /**
  * How a solve that ran ended, written by `cadmm_solver_solve`. A plain integer like
@@ -205,6 +243,39 @@ typedef struct cadmm_stats {
      */
     uint64_t linear_iterations;
 } cadmm_stats;
+
+/**
+ * A sparse matrix in compressed sparse column form, 0-based, borrowed for the duration of
+ * the call that receives it (the library copies what it keeps).
+ *
+ * `colptr` (never NULL) has `ncols + 1` entries, starts at 0 and does not decrease;
+ * `rowind` and `values` have `colptr[ncols]` entries each (NULL allowed when that is 0).
+ * Row indices lie in `[0, nrows)`, need not be sorted within a column, and must not repeat
+ * within a column. Values must be finite. Symmetric matrices (M, W) are given in full, both
+ * triangles.
+ */
+typedef struct cadmm_csc {
+    /**
+     * Number of rows.
+     */
+    size_t nrows;
+    /**
+     * Number of columns.
+     */
+    size_t ncols;
+    /**
+     * Column pointers, `ncols + 1` entries.
+     */
+    const int64_t *colptr;
+    /**
+     * Row index of each entry, `colptr[ncols]` entries.
+     */
+    const int64_t *rowind;
+    /**
+     * Value of each entry, `colptr[ncols]` entries.
+     */
+    const double *values;
+} cadmm_csc;
 
 /**
  * One recorded iteration of the last solve (see `cadmm_settings_set_trace`).
@@ -371,6 +442,90 @@ const char *cadmm_last_error(void);
  * for a value that is not a `CADMM_OK`/`CADMM_ERR_*` code. Never free it.
  */
 const char *cadmm_result_message(cadmm_result code);
+
+#if defined(CADMM_WITH_MPI)
+/**
+ * Creates the solver of this process's part (collective over `comm`): checks every
+ * process's part, learns which process owns which body, picks the first rho and prepares
+ * the distributed v-update system. The solver talks on its own duplicate of `comm`.
+ *
+ * `comm` is the Fortran handle of the host's communicator, `MPI_Comm_c2f(comm)`; MPI
+ * must be initialized. The settings apply as for one process, with the v-update always
+ * matrix-free and no Newton phase (a Newton polish asked for is left out); `direct`, the
+ * variant `newton` and the spectral first penalties are refused
+ * (`CADMM_ERR_UNSUPPORTED`). The solver must be freed before `MPI_Finalize`.
+ *
+ * On success `*out` receives this process's solver; on failure, on every process, `*out`
+ * is left untouched and `cadmm_last_error` names the failing rank and item. Errors:
+ * `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_CSC`,
+ * `CADMM_ERR_INVALID_VALUE` (a non-finite value, a body id owned twice or by no
+ * process), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_INVALID_SETTING`,
+ * `CADMM_ERR_UNSUPPORTED`.
+ */
+cadmm_result cadmm_distributed_solver_new(int comm,
+                                          const struct cadmm_rank_part *part,
+                                          const struct cadmm_settings *s,
+                                          struct cadmm_distributed_solver **out);
+#endif
+
+#if defined(CADMM_WITH_MPI)
+/**
+ * Starts the next solve from impulses `r` of this process's contacts (`3 n_contacts`)
+ * and, unless NULL, velocities `v` of its bodies (collective). Errors:
+ * `CADMM_ERR_NULL_POINTER` (`r`), `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_VALUE`.
+ */
+cadmm_result cadmm_distributed_solver_warm_start(struct cadmm_distributed_solver *sv,
+                                                 const double *r,
+                                                 const double *v);
+#endif
+
+#if defined(CADMM_WITH_MPI)
+/**
+ * Solves (collective); `*status` receives how the solve ended, the same on every
+ * process. Errors: `CADMM_ERR_NULL_POINTER` (`status`, after the solve),
+ * `CADMM_ERR_NOT_POSITIVE_DEFINITE`.
+ */
+cadmm_result cadmm_distributed_solver_solve(struct cadmm_distributed_solver *sv,
+                                            cadmm_status *status);
+#endif
+
+#if defined(CADMM_WITH_MPI)
+/**
+ * Copies this process's part of the solution (not collective): impulses `r` and relative
+ * velocities `u` of its contacts (`3 n_contacts` each) and velocities `v` of its bodies;
+ * any may be NULL to skip it. Errors: `CADMM_ERR_NULL_POINTER` (`sv`).
+ */
+cadmm_result cadmm_distributed_solver_get_solution(struct cadmm_distributed_solver *sv,
+                                                   double *r,
+                                                   double *u,
+                                                   double *v);
+#endif
+
+#if defined(CADMM_WITH_MPI)
+/**
+ * Fills `*out` with the statistics of the last solve (not collective; the same on every
+ * process but for the timings). Set `out->struct_size = sizeof(cadmm_stats)` first.
+ * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE`.
+ */
+cadmm_result cadmm_distributed_solver_get_stats(struct cadmm_distributed_solver *sv,
+                                                struct cadmm_stats *out);
+#endif
+
+#if defined(CADMM_WITH_MPI)
+/**
+ * The message of the last failed call on this solver ("" when none); valid until the
+ * next call on it. NULL for a NULL solver.
+ */
+const char *cadmm_distributed_solver_last_error(const struct cadmm_distributed_solver *sv);
+#endif
+
+#if defined(CADMM_WITH_MPI)
+/**
+ * Frees a solver (NULL is a no-op). Its communicator is freed with it: call it on every
+ * process, before `MPI_Finalize`.
+ */
+void cadmm_distributed_solver_free(struct cadmm_distributed_solver *sv);
+#endif
 
 /**
  * Builds a global problem: `M v = H r + f`, `u = H^T v + w`, with `n` velocities and

@@ -57,4 +57,4 @@ pub use problem::{GlobalProblem, Joints, LocalProblem, NewValues, Problem};
 pub use settings::InitialRho;
 pub use settings::{LinearSolver, NewtonUse, Resolved, Settings, VariantChoice};
 pub use solver::Solver;
-pub use types::{Error, Phase, Solution, Stats, Status, TracePoint};
+pub use types::{Error, ErrorKind, Phase, Solution, Stats, Status, TracePoint};

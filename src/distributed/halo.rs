@@ -7,6 +7,7 @@
 //! also in rank order: the results depend on the number of processes, not on timing.
 
 use super::problem::RankError;
+use crate::types::{Error, ErrorKind};
 use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::{Communicator, SimpleCommunicator};
 use mpi::traits::*;
@@ -75,6 +76,7 @@ impl Halo {
                 if let Some((other, _)) = owner.insert(id, (r, place)) {
                     return Err(RankError {
                         rank: r,
+                        kind: ErrorKind::InvalidValue,
                         message: format!("bodies[{k}]: body id {id} is owned by rank {other} too"),
                     });
                 }
@@ -96,8 +98,12 @@ impl Halo {
         }
         agree(
             &comm,
-            unknown
-                .map(|(entry, id)| format!("h_body[{entry}]: body id {id} is owned by no process")),
+            unknown.map(|(entry, id)| {
+                (
+                    ErrorKind::InvalidValue,
+                    format!("h_body[{entry}]: body id {id} is owned by no process"),
+                )
+            }),
         )?;
         copied.sort_unstable();
         copied.dedup();
@@ -261,24 +267,50 @@ impl Halo {
     }
 }
 
-/// Every process learns whether one failed: the lowest failing rank's message becomes
-/// every process's error.
-pub(crate) fn agree(comm: &SimpleCommunicator, failure: Option<String>) -> Result<(), RankError> {
+/// Every process learns whether one failed: the lowest failing rank's error (its kind and
+/// message) becomes every process's.
+pub(crate) fn agree(
+    comm: &SimpleCommunicator,
+    failure: Option<(ErrorKind, String)>,
+) -> Result<(), RankError> {
+    let index = |kind| ErrorKind::ALL.iter().position(|&k| k == kind).unwrap_or(0) as u8;
+    agree_code(comm, failure.map(|(kind, message)| (index(kind), message))).map_err(
+        |(rank, code, message)| RankError {
+            rank,
+            kind: ErrorKind::ALL[usize::from(code).min(ErrorKind::ALL.len() - 1)],
+            message,
+        },
+    )
+}
+
+/// [`agree`] with the error as a code of the caller's (the C API's result codes): the
+/// lowest failing rank, its code and its message, on every process.
+pub(crate) fn agree_code(
+    comm: &SimpleCommunicator,
+    failure: Option<(u8, String)>,
+) -> Result<(), (usize, u8, String)> {
     let mut failed = vec![0u8; comm.size() as usize];
     comm.all_gather_into(&u8::from(failure.is_some()), &mut failed[..]);
     let Some(rank) = failed.iter().position(|&f| f != 0) else {
         return Ok(());
     };
     let root = comm.process_at_rank(rank as i32);
-    let mut bytes = failure.map(String::into_bytes).unwrap_or_default();
+    let (mut code, message) = failure.unwrap_or_default();
+    let mut bytes = message.into_bytes();
     let mut len = bytes.len() as u64;
+    root.broadcast_into(&mut code);
     root.broadcast_into(&mut len);
     bytes.resize(len as usize, 0);
     root.broadcast_into(&mut bytes[..]);
-    Err(RankError {
-        rank,
-        message: String::from_utf8_lossy(&bytes).into_owned(),
-    })
+    Err((rank, code, String::from_utf8_lossy(&bytes).into_owned()))
+}
+
+/// [`agree`] on this process's outcome.
+pub(crate) fn agree_on(
+    comm: &SimpleCommunicator,
+    outcome: Result<(), Error>,
+) -> Result<(), RankError> {
+    agree(comm, outcome.err().map(|e| (e.kind(), e.to_string())))
 }
 
 /// Every process's `mine`, rank after rank.

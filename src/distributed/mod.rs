@@ -23,5 +23,6 @@ mod solver;
 mod splitting;
 mod system;
 
+pub(crate) use halo::agree_code;
 pub use problem::{RankError, RankProblem};
 pub use solver::DistributedSolver;

@@ -2,7 +2,7 @@
 
 use crate::linsys::BLOCK_MAX;
 use crate::problem::GlobalProblem;
-use crate::types::Error;
+use crate::types::{Error, ErrorKind};
 use std::fmt;
 
 /// This process's part of a global contact problem: the bodies it owns and the contacts
@@ -37,6 +37,8 @@ pub struct RankProblem {
 pub struct RankError {
     /// The process (its rank) whose part or work failed; the lowest one when several did.
     pub rank: usize,
+    /// What kind of error it met there (the C API's result code).
+    pub kind: ErrorKind,
     /// What failed there, with the item it names.
     pub message: String,
 }

@@ -3,12 +3,13 @@
 //! gets back its own contacts' impulses and velocities and its own bodies' velocities,
 //! and every process the same status, iterations and error.
 
+use super::halo::agree_on;
 use super::problem::{RankError, RankProblem};
 use super::splitting::DistributedSplitting;
 use crate::admm::{run, EngineSettings, EngineState, Splitting};
 use crate::problem::check_len;
 use crate::settings::{InitialRho, LinearSolver, NewtonUse, Settings};
-use crate::types::{Stats, Status, TracePoint};
+use crate::types::{ErrorKind, Stats, Status, TracePoint};
 use mpi::topology::{Communicator, SimpleCommunicator};
 use std::time::Instant;
 
@@ -52,8 +53,7 @@ impl DistributedSolver {
     ) -> Result<Self, RankError> {
         let t0 = Instant::now();
         let rank = comm.rank() as usize;
-        let supported = supported(&settings).err().map(|e| e.to_string());
-        super::halo::agree(comm, supported)?;
+        agree_on(comm, supported(&settings))?;
         let mut split = DistributedSplitting::new(comm, part)?;
         let resolved = settings.resolved();
         let rho0 = match resolved.initial_rho {
@@ -106,7 +106,7 @@ impl DistributedSolver {
         let part = self.split.part();
         let checked = check_len("r", r, 3 * part.n_contacts())
             .and_then(|()| v.map_or(Ok(()), |v| check_len("v", v, part.n_velocities())));
-        self.split.agree(checked.err().map(|e| e.to_string()))?;
+        self.split.agree_on(checked)?;
         self.state.rho = self.rho0;
         self.split
             .set_rho(self.rho0)
@@ -180,6 +180,21 @@ impl DistributedSolver {
         &self.settings
     }
 
+    /// Contacts this process owns.
+    pub fn n_contacts(&self) -> usize {
+        self.split.part().n_contacts()
+    }
+
+    /// Velocities this process owns.
+    pub fn n_velocities(&self) -> usize {
+        self.split.part().n_velocities()
+    }
+
+    /// The solver's communicator (its own duplicate of the host's).
+    pub(crate) fn comm(&self) -> &SimpleCommunicator {
+        self.split.comm()
+    }
+
     /// This process's rank in the communicator.
     pub fn rank(&self) -> usize {
         self.rank
@@ -219,6 +234,7 @@ fn supported(settings: &Settings) -> Result<(), crate::Error> {
 fn failure(split: &mut DistributedSplitting) -> RankError {
     split.take_failure().unwrap_or(RankError {
         rank: 0,
+        kind: ErrorKind::NotPositiveDefinite,
         message: "the solve failed".into(),
     })
 }

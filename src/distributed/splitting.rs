@@ -4,7 +4,7 @@
 //! velocities, the v-update solved by [`DistributedGram`] and every norm added up across
 //! the processes in rank order.
 
-use super::halo::agree;
+use super::halo::agree_on;
 use super::problem::{RankError, RankProblem};
 use super::system::DistributedGram;
 use crate::admm::{EngineState, Splitting};
@@ -130,9 +130,14 @@ impl DistributedSplitting {
         self.failure.take()
     }
 
-    /// Every process learns whether one failed (see [`agree`]).
-    pub fn agree(&self, failure: Option<String>) -> Result<(), RankError> {
-        agree(self.system.halo().comm(), failure)
+    /// The communicator of the processes sharing the problem.
+    pub fn comm(&self) -> &SimpleCommunicator {
+        self.system.halo().comm()
+    }
+
+    /// Every process learns whether one failed (see [`agree_on`]).
+    pub fn agree_on(&self, outcome: Result<(), Error>) -> Result<(), RankError> {
+        agree_on(self.system.halo().comm(), outcome)
     }
 
     /// A start from nothing: no impulse, no velocity, the initial shift.

@@ -6,13 +6,14 @@
 //! The block-Jacobi preconditioner is each owned body's block of the whole system,
 //! contacts of every process included.
 
-use super::halo::{agree, Halo};
+use super::halo::{agree, agree_on, Halo};
 use super::problem::{RankError, RankProblem};
 use crate::csc::{dot, CscMatrix};
 use crate::linsys::dense::spd_inverse;
 use crate::linsys::{
     conjugate_gradients, CgSystem, CgWork, ContactColumns, PcgOutcome, PcgStop, Workers, BLOCK_MAX,
 };
+use crate::types::ErrorKind;
 use mpi::topology::SimpleCommunicator;
 use std::time::Instant;
 
@@ -45,7 +46,7 @@ impl DistributedGram {
         part: &RankProblem,
         active: Vec<f64>,
     ) -> Result<Self, RankError> {
-        agree(comm, part.validate().err().map(|e| e.to_string()))?;
+        agree_on(comm, part.validate())?;
         let touched = part.h_body.iter().copied().enumerate();
         let halo = Halo::new(comm, &part.bodies, &part.dofs, touched)?;
         let h = local_h(&halo, part);
@@ -101,7 +102,12 @@ impl DistributedGram {
         }
         agree(
             self.halo.comm(),
-            failed.map(|b| format!("bodies[{b}]: M + rho H H^T is not positive definite")),
+            failed.map(|b| {
+                (
+                    ErrorKind::NotPositiveDefinite,
+                    format!("bodies[{b}]: M + rho H H^T is not positive definite"),
+                )
+            }),
         )?;
         self.rho = rho;
         Ok(())
@@ -200,14 +206,17 @@ impl CgSystem for DistributedGram {
 }
 
 /// This process's contacts' H over its vectors, or what is wrong in it.
-fn local_h(halo: &Halo, part: &RankProblem) -> Result<CscMatrix, String> {
+fn local_h(halo: &Halo, part: &RankProblem) -> Result<CscMatrix, (ErrorKind, String)> {
     let mut rows = Vec::with_capacity(part.h_body.len());
     for (e, (&id, &dof)) in part.h_body.iter().zip(&part.h_dof).enumerate() {
         let place = halo.place(id);
         if dof >= place.dofs {
-            return Err(format!(
-                "h_dof[{e}]: velocity {dof} of body id {id}, which has {}",
-                place.dofs
+            return Err((
+                ErrorKind::InvalidValue,
+                format!(
+                    "h_dof[{e}]: velocity {dof} of body id {id}, which has {}",
+                    place.dofs
+                ),
             ));
         }
         rows.push(place.first + dof);
@@ -220,7 +229,7 @@ fn local_h(halo: &Halo, part: &RankProblem) -> Result<CscMatrix, String> {
         rows,
         part.h_values.clone(),
     )
-    .map_err(|e| e.to_string())
+    .map_err(|e| (e.kind(), e.to_string()))
 }
 
 /// `(H D H^T)_BB` of every body this process owns (`blocks`: first velocity, velocities,
@@ -566,7 +575,7 @@ mod tests {
         let error = DistributedGram::new(&world, &mine, active.clone())
             .err()
             .expect("an error");
-        assert_eq!(error.rank, 1);
+        assert_eq!((error.rank, error.kind), (1, ErrorKind::InvalidValue));
         assert_eq!(
             error.message,
             "h_body[4]: body id 999999 is owned by no process"
@@ -579,7 +588,7 @@ mod tests {
         let error = DistributedGram::new(&world, &mine, active)
             .err()
             .expect("an error");
-        assert_eq!(error.rank, 0);
+        assert_eq!((error.rank, error.kind), (0, ErrorKind::InvalidValue));
         assert!(
             error.message.contains("f") && error.message.contains('3'),
             "{error}"

@@ -32,6 +32,8 @@
 
 mod arrays;
 pub mod csc;
+#[cfg(feature = "mpi")]
+pub mod distributed;
 mod panic;
 pub mod problem;
 pub mod result;
@@ -40,6 +42,13 @@ pub mod solver;
 pub mod stats;
 
 pub use csc::cadmm_csc;
+#[cfg(feature = "mpi")]
+pub use distributed::{
+    cadmm_distributed_solver, cadmm_distributed_solver_free, cadmm_distributed_solver_get_solution,
+    cadmm_distributed_solver_get_stats, cadmm_distributed_solver_last_error,
+    cadmm_distributed_solver_new, cadmm_distributed_solver_solve,
+    cadmm_distributed_solver_warm_start, cadmm_rank_part,
+};
 pub use problem::{
     cadmm_problem, cadmm_problem_dims, cadmm_problem_error, cadmm_problem_free,
     cadmm_problem_new_global, cadmm_problem_new_local, cadmm_problem_read_fclib,

@@ -1,6 +1,6 @@
 //! Result codes (why a call failed) and solve status codes (how a solve ended).
 
-use crate::types::{Error, Status};
+use crate::types::{Error, ErrorKind, Status};
 use std::ffi::CStr;
 
 /// Outcome of a call: `CADMM_OK` (0) or one of the `CADMM_ERR_*` codes. A plain integer
@@ -76,19 +76,24 @@ pub(crate) fn status_code(s: Status) -> cadmm_status {
     }
 }
 
-/// The C result code of an [`Error`]. Exhaustive on purpose: a new variant must be mapped.
+/// The C result code of an [`Error`].
 pub(crate) fn error_code(e: &Error) -> cadmm_result {
-    match e {
-        Error::Dimension { .. } => CADMM_ERR_DIMENSION,
-        Error::InvalidCsc { .. } => CADMM_ERR_INVALID_CSC,
-        Error::InvalidValue { .. } => CADMM_ERR_INVALID_VALUE,
-        Error::NotPositiveDefinite { .. } => CADMM_ERR_NOT_POSITIVE_DEFINITE,
-        Error::Singular { .. } => CADMM_ERR_SINGULAR,
-        Error::InvalidSetting { .. } => CADMM_ERR_INVALID_SETTING,
-        Error::Io(_) => CADMM_ERR_IO,
-        Error::Unsupported(_) => CADMM_ERR_UNSUPPORTED,
-        Error::PatternChanged { .. } => CADMM_ERR_PATTERN_CHANGED,
-        Error::OutOfMemory { .. } => CADMM_ERR_OUT_OF_MEMORY,
+    kind_code(e.kind())
+}
+
+/// The C result code of an [`ErrorKind`]. Exhaustive on purpose: a new kind must be mapped.
+pub(crate) fn kind_code(kind: ErrorKind) -> cadmm_result {
+    match kind {
+        ErrorKind::Dimension => CADMM_ERR_DIMENSION,
+        ErrorKind::InvalidCsc => CADMM_ERR_INVALID_CSC,
+        ErrorKind::InvalidValue => CADMM_ERR_INVALID_VALUE,
+        ErrorKind::NotPositiveDefinite => CADMM_ERR_NOT_POSITIVE_DEFINITE,
+        ErrorKind::Singular => CADMM_ERR_SINGULAR,
+        ErrorKind::InvalidSetting => CADMM_ERR_INVALID_SETTING,
+        ErrorKind::Io => CADMM_ERR_IO,
+        ErrorKind::Unsupported => CADMM_ERR_UNSUPPORTED,
+        ErrorKind::PatternChanged => CADMM_ERR_PATTERN_CHANGED,
+        ErrorKind::OutOfMemory => CADMM_ERR_OUT_OF_MEMORY,
     }
 }
 

@@ -478,7 +478,7 @@ pub unsafe extern "C" fn cadmm_solver_get_joint_multipliers(
 ///
 /// # Safety
 /// `out`, if non-NULL, must point to a writable `cadmm_stats` of `struct_size` bytes.
-unsafe fn put_stats(out: *mut cadmm_stats, stats: &crate::types::Stats) -> FfiResult {
+pub(crate) unsafe fn put_stats(out: *mut cadmm_stats, stats: &crate::types::Stats) -> FfiResult {
     check_ptr("out", out.cast_const())?;
     // SAFETY: non-NULL and aligned; `struct_size` is the first field, present in every
     // version of the struct.

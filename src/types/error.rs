@@ -103,3 +103,64 @@ impl fmt::Display for Error {
 }
 
 impl std::error::Error for Error {}
+
+/// What kind of error an [`Error`] is, without its details: the C API's result code, and
+/// what the processes sharing a distributed problem learn of one process's error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ErrorKind {
+    /// [`Error::Dimension`].
+    Dimension,
+    /// [`Error::InvalidCsc`].
+    InvalidCsc,
+    /// [`Error::InvalidValue`].
+    InvalidValue,
+    /// [`Error::NotPositiveDefinite`].
+    NotPositiveDefinite,
+    /// [`Error::Singular`].
+    Singular,
+    /// [`Error::InvalidSetting`].
+    InvalidSetting,
+    /// [`Error::PatternChanged`].
+    PatternChanged,
+    /// [`Error::OutOfMemory`].
+    OutOfMemory,
+    /// [`Error::Unsupported`].
+    Unsupported,
+    /// [`Error::Io`].
+    Io,
+}
+
+impl ErrorKind {
+    /// Every kind, in a fixed order (a kind's index there is how it travels between
+    /// processes).
+    pub const ALL: [ErrorKind; 10] = [
+        Self::Dimension,
+        Self::InvalidCsc,
+        Self::InvalidValue,
+        Self::NotPositiveDefinite,
+        Self::Singular,
+        Self::InvalidSetting,
+        Self::PatternChanged,
+        Self::OutOfMemory,
+        Self::Unsupported,
+        Self::Io,
+    ];
+}
+
+impl Error {
+    /// The kind of this error.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            Error::Dimension { .. } => ErrorKind::Dimension,
+            Error::InvalidCsc { .. } => ErrorKind::InvalidCsc,
+            Error::InvalidValue { .. } => ErrorKind::InvalidValue,
+            Error::NotPositiveDefinite { .. } => ErrorKind::NotPositiveDefinite,
+            Error::Singular { .. } => ErrorKind::Singular,
+            Error::InvalidSetting { .. } => ErrorKind::InvalidSetting,
+            Error::PatternChanged { .. } => ErrorKind::PatternChanged,
+            Error::OutOfMemory { .. } => ErrorKind::OutOfMemory,
+            Error::Unsupported(_) => ErrorKind::Unsupported,
+            Error::Io(_) => ErrorKind::Io,
+        }
+    }
+}

@@ -7,7 +7,7 @@ mod solution;
 mod stats;
 mod status;
 
-pub use error::Error;
+pub use error::{Error, ErrorKind};
 pub use solution::Solution;
 pub use stats::{Phase, Stats, TracePoint};
 pub use status::Status;

@@ -1,0 +1,349 @@
+//! One problem shared out among MPI processes (built with `CADMM_WITH_MPI`, the Cargo
+//! feature `mpi`). Each process of the host's communicator hands its part
+//! (`cadmm_rank_part`) to `cadmm_distributed_solver_new`, and every process then makes
+//! the same calls in the same order: the calls marked collective communicate, and return
+//! on every process with the same result code. An error one process meets (a NULL array,
+//! a non-finite value, a contact naming a body no process owns) is every process's, with
+//! the message naming that process's rank and the item.
+//!
+//! The communicator is passed as a Fortran handle (`MPI_Fint`, from `MPI_Comm_c2f`), so
+//! that this header needs no `mpi.h`: it works with the MPI the library was built with.
+
+use super::arrays::{check_output, check_ptr, contact_len, input, write_output};
+use super::panic::{catch, guard};
+use super::result::{
+    cadmm_result, cadmm_status, kind_code, status_code, Failure, FfiResult,
+    CADMM_ERR_INVALID_VALUE, CADMM_ERR_PANIC, CADMM_ERR_UNSUPPORTED,
+};
+use super::settings::{cadmm_settings, settings_ref};
+use super::stats::cadmm_stats;
+use crate::distributed::{agree_code, DistributedSolver, RankError, RankProblem};
+use mpi::raw::FromRaw;
+use mpi::topology::SimpleCommunicator;
+use std::cell::RefCell;
+use std::ffi::{c_char, c_int, CString};
+use std::mem::ManuallyDrop;
+
+/// A process's part of a global problem shared out among MPI processes. Arrays are read
+/// during `cadmm_distributed_solver_new` only; their lengths follow from the counts.
+/// Bodies are named by global ids (any `uint64_t`, each owned by exactly one process);
+/// the velocities of this process's bodies are numbered body after body.
+#[repr(C)]
+pub struct cadmm_rank_part {
+    /// Bodies this process owns.
+    pub n_bodies: usize,
+    /// Their global ids (`n_bodies`).
+    pub body_ids: *const u64,
+    /// Their velocities: 1 to 12 each, 6 for a rigid body (`n_bodies`).
+    pub body_dofs: *const usize,
+    /// Each body's mass matrix, `dofs x dofs` column-major, body after body (the sum of
+    /// `dofs^2`).
+    pub mass: *const f64,
+    /// Free-motion term, one entry per owned velocity (the sum of `dofs`).
+    pub f: *const f64,
+    /// Contacts this process owns.
+    pub n_contacts: usize,
+    /// Start of each of the `3 n_contacts` columns of H (normal first) in the entry arrays
+    /// below (`3 n_contacts + 1`, from 0).
+    pub h_colptr: *const usize,
+    /// Each entry's body, by global id: one this process owns or another one does
+    /// (`h_colptr[3 n_contacts]`).
+    pub h_body: *const u64,
+    /// Each entry's velocity within its body, from 0 (`h_colptr[3 n_contacts]`).
+    pub h_dof: *const usize,
+    /// Each entry's value (`h_colptr[3 n_contacts]`).
+    pub h_values: *const f64,
+    /// Relative velocity offset `w` (`3 n_contacts`).
+    pub w: *const f64,
+    /// Friction coefficients (`n_contacts`).
+    pub mu: *const f64,
+}
+
+/// A solver for one problem shared out among MPI processes, each process holding its own
+/// handle. Opaque; created by `cadmm_distributed_solver_new`, released by
+/// `cadmm_distributed_solver_free`.
+pub struct cadmm_distributed_solver {
+    solver: DistributedSolver,
+    last_error: RefCell<CString>,
+}
+
+impl cadmm_distributed_solver {
+    fn record(&self, message: &str) {
+        let text = CString::new(message.replace('\0', " ")).unwrap_or_default();
+        *self.last_error.borrow_mut() = text;
+    }
+}
+
+impl From<RankError> for Failure {
+    fn from(e: RankError) -> Self {
+        Self::new(kind_code(e.kind), e.to_string())
+    }
+}
+
+/// Reads a part, or what is wrong with its arrays.
+///
+/// # Safety
+/// The pointers of `part` must be valid for the lengths its counts give.
+unsafe fn read_part(part: &cadmm_rank_part) -> FfiResult<RankProblem> {
+    // SAFETY (every `input` below): valid for the given lengths by the caller's contract.
+    let dofs: Vec<usize> =
+        unsafe { input("part->body_dofs", part.body_dofs, part.n_bodies)? }.to_vec();
+    let too_many = || {
+        Failure::new(
+            CADMM_ERR_INVALID_VALUE,
+            "part->body_dofs: a body has 1 to 12 velocities",
+        )
+    };
+    let square = dofs
+        .iter()
+        .try_fold(0usize, |sum, &k| {
+            k.checked_mul(k).and_then(|kk| sum.checked_add(kk))
+        })
+        .ok_or_else(too_many)?;
+    let velocities = dofs
+        .iter()
+        .try_fold(0usize, |sum, &k| sum.checked_add(k))
+        .ok_or_else(too_many)?;
+    let l = contact_len(part.n_contacts)?;
+    let colptr = unsafe { input("part->h_colptr", part.h_colptr, l + 1)? }.to_vec();
+    let entries = *colptr.last().unwrap_or(&0);
+    Ok(RankProblem {
+        bodies: unsafe { input("part->body_ids", part.body_ids, part.n_bodies)? }.to_vec(),
+        mass: unsafe { input("part->mass", part.mass, square)? }.to_vec(),
+        f: unsafe { input("part->f", part.f, velocities)? }.to_vec(),
+        h_colptr: colptr,
+        h_body: unsafe { input("part->h_body", part.h_body, entries)? }.to_vec(),
+        h_dof: unsafe { input("part->h_dof", part.h_dof, entries)? }.to_vec(),
+        h_values: unsafe { input("part->h_values", part.h_values, entries)? }.to_vec(),
+        w: unsafe { input("part->w", part.w, l)? }.to_vec(),
+        mu: unsafe { input("part->mu", part.mu, part.n_contacts)? }.to_vec(),
+        dofs,
+    })
+}
+
+/// The host's communicator from its Fortran handle, borrowed: never freed here.
+fn host_communicator(comm: c_int) -> FfiResult<ManuallyDrop<SimpleCommunicator>> {
+    if !mpi::environment::is_initialized() || mpi::environment::is_finalized() {
+        return Err(Failure::new(
+            CADMM_ERR_UNSUPPORTED,
+            "MPI is not initialized (or already finalized): call MPI_Init first",
+        ));
+    }
+    // SAFETY: the conversion of a handle, which MPI defines for any value it returns.
+    let raw = unsafe { mpi::ffi::RSMPI_Comm_f2c(comm) };
+    // SAFETY: reading MPI's constant.
+    if raw == unsafe { mpi::ffi::RSMPI_COMM_NULL } {
+        return Err(Failure::new(
+            CADMM_ERR_INVALID_VALUE,
+            "comm is MPI_COMM_NULL (pass MPI_Comm_c2f of the host's communicator)",
+        ));
+    }
+    // SAFETY: a live communicator of the host's; ManuallyDrop keeps it from being freed.
+    Ok(ManuallyDrop::new(unsafe {
+        SimpleCommunicator::from_raw(raw)
+    }))
+}
+
+/// Creates the solver of this process's part (collective over `comm`): checks every
+/// process's part, learns which process owns which body, picks the first rho and prepares
+/// the distributed v-update system. The solver talks on its own duplicate of `comm`.
+///
+/// `comm` is the Fortran handle of the host's communicator, `MPI_Comm_c2f(comm)`; MPI
+/// must be initialized. The settings apply as for one process, with the v-update always
+/// matrix-free and no Newton phase (a Newton polish asked for is left out); `direct`, the
+/// variant `newton` and the spectral first penalties are refused
+/// (`CADMM_ERR_UNSUPPORTED`). The solver must be freed before `MPI_Finalize`.
+///
+/// On success `*out` receives this process's solver; on failure, on every process, `*out`
+/// is left untouched and `cadmm_last_error` names the failing rank and item. Errors:
+/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_CSC`,
+/// `CADMM_ERR_INVALID_VALUE` (a non-finite value, a body id owned twice or by no
+/// process), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_INVALID_SETTING`,
+/// `CADMM_ERR_UNSUPPORTED`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_distributed_solver_new(
+    comm: c_int,
+    part: *const cadmm_rank_part,
+    s: *const cadmm_settings,
+    out: *mut *mut cadmm_distributed_solver,
+) -> cadmm_result {
+    guard(|| {
+        let comm = host_communicator(comm)?;
+        // What this process alone finds wrong, agreed before anything else communicates.
+        let local = (|| {
+            check_ptr("part", part)?;
+            check_ptr("out", out.cast_const())?;
+            // SAFETY: checked non-NULL and aligned; valid by contract.
+            let part = unsafe { read_part(&*part)? };
+            // SAFETY: a live handle by contract.
+            let settings = unsafe { settings_ref("s", s)? }.clone();
+            Ok((part, settings))
+        })();
+        let local = agreed(&comm, local)?;
+        let (part, settings) = local;
+        let solver = DistributedSolver::new(&comm, part, settings)?;
+        let handle = Box::into_raw(Box::new(cadmm_distributed_solver {
+            solver,
+            last_error: RefCell::new(CString::default()),
+        }));
+        // SAFETY: checked non-NULL and aligned above.
+        unsafe { out.write(handle) };
+        Ok(())
+    })
+}
+
+/// What one process found wrong before a collective call, made every process's error
+/// (the lowest failing rank's code and message).
+fn agreed<T>(comm: &SimpleCommunicator, local: FfiResult<T>) -> FfiResult<T> {
+    let failure = local
+        .as_ref()
+        .err()
+        .map(|f| (f.code as u8, f.message.clone()));
+    agree_code(comm, failure).map_err(|(rank, code, message)| {
+        Failure::new(cadmm_result::from(code), format!("rank {rank}: {message}"))
+    })?;
+    local
+}
+
+/// Runs a call on a solver: NULL check, panic boundary, error message. A NULL solver
+/// returns at once, on that process alone (it has no communicator to tell the others).
+///
+/// # Safety
+/// `sv`, if non-NULL, must be a live handle used by this thread only.
+unsafe fn with_solver(
+    sv: *mut cadmm_distributed_solver,
+    body: impl FnOnce(&mut cadmm_distributed_solver) -> FfiResult,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("sv", sv.cast_const())?;
+        // SAFETY: a live handle by contract.
+        let sv = unsafe { &mut *sv };
+        let outcome =
+            catch(|| body(sv)).unwrap_or_else(|panic| Err(Failure::new(CADMM_ERR_PANIC, panic)));
+        if let Err(failure) = &outcome {
+            sv.record(&failure.message);
+        }
+        outcome
+    })
+}
+
+/// Starts the next solve from impulses `r` of this process's contacts (`3 n_contacts`)
+/// and, unless NULL, velocities `v` of its bodies (collective). Errors:
+/// `CADMM_ERR_NULL_POINTER` (`r`), `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_VALUE`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_distributed_solver_warm_start(
+    sv: *mut cadmm_distributed_solver,
+    r: *const f64,
+    v: *const f64,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_distributed_solver| -> FfiResult {
+        let (l, n) = (3 * sv.solver.n_contacts(), sv.solver.n_velocities());
+        let local = (|| {
+            // SAFETY: valid for `l` and `n` entries by contract.
+            let r = unsafe { input("r", r, l)? };
+            let v = match v.is_null() {
+                true => None,
+                // SAFETY: as above.
+                false => Some(unsafe { input("v", v, n)? }),
+            };
+            Ok((r, v))
+        })();
+        let (r, v) = agreed(sv.solver.comm(), local)?;
+        sv.solver.warm_start(r, v)?;
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver(sv, body) }
+}
+
+/// Solves (collective); `*status` receives how the solve ended, the same on every
+/// process. Errors: `CADMM_ERR_NULL_POINTER` (`status`, after the solve),
+/// `CADMM_ERR_NOT_POSITIVE_DEFINITE`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_distributed_solver_solve(
+    sv: *mut cadmm_distributed_solver,
+    status: *mut cadmm_status,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_distributed_solver| -> FfiResult {
+        let s = sv.solver.solve()?;
+        check_ptr("status", status.cast_const())?;
+        // SAFETY: checked non-NULL and aligned.
+        unsafe { status.write(status_code(s)) };
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver(sv, body) }
+}
+
+/// Copies this process's part of the solution (not collective): impulses `r` and relative
+/// velocities `u` of its contacts (`3 n_contacts` each) and velocities `v` of its bodies;
+/// any may be NULL to skip it. Errors: `CADMM_ERR_NULL_POINTER` (`sv`).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_distributed_solver_get_solution(
+    sv: *mut cadmm_distributed_solver,
+    r: *mut f64,
+    u: *mut f64,
+    v: *mut f64,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_distributed_solver| -> FfiResult {
+        let s = &sv.solver;
+        let parts = [(r, "r", s.r()), (u, "u", s.u()), (v, "v", s.v())];
+        for (ptr, what, data) in parts {
+            if !ptr.is_null() {
+                check_output(what, ptr, data.len())?;
+            }
+        }
+        for (ptr, _, data) in parts {
+            if !ptr.is_null() {
+                // SAFETY: checked; lengths from the part as documented.
+                unsafe { write_output(ptr, data) };
+            }
+        }
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver(sv, body) }
+}
+
+/// Fills `*out` with the statistics of the last solve (not collective; the same on every
+/// process but for the timings). Set `out->struct_size = sizeof(cadmm_stats)` first.
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_distributed_solver_get_stats(
+    sv: *mut cadmm_distributed_solver,
+    out: *mut cadmm_stats,
+) -> cadmm_result {
+    // SAFETY: the caller's contract, forwarded.
+    let body = |sv: &mut cadmm_distributed_solver| unsafe {
+        super::solver::put_stats(out, sv.solver.stats())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_solver(sv, body) }
+}
+
+/// The message of the last failed call on this solver ("" when none); valid until the
+/// next call on it. NULL for a NULL solver.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_distributed_solver_last_error(
+    sv: *const cadmm_distributed_solver,
+) -> *const c_char {
+    super::panic::guard_value(std::ptr::null(), || {
+        if sv.is_null() {
+            return std::ptr::null();
+        }
+        // SAFETY: a live handle by contract.
+        unsafe { (*sv).last_error.borrow().as_ptr() }
+    })
+}
+
+/// Frees a solver (NULL is a no-op). Its communicator is freed with it: call it on every
+/// process, before `MPI_Finalize`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_distributed_solver_free(sv: *mut cadmm_distributed_solver) {
+    super::panic::guard_value((), || {
+        if !sv.is_null() {
+            // SAFETY: a handle from cadmm_distributed_solver_new, freed once by contract.
+            drop(unsafe { Box::from_raw(sv) });
+        }
+    })
+}

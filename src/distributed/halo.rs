@@ -12,8 +12,9 @@ use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::{Communicator, SimpleCommunicator};
 use mpi::traits::*;
 use mpi::Count;
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::collections::HashMap;
+use std::time::Instant;
 
 /// Where a body's velocities are in this process's vectors.
 #[derive(Debug, Clone, Copy)]
@@ -45,6 +46,8 @@ pub(crate) struct Halo {
     back: Vec<f64>,
     /// Every process's partial sums, for [`Halo::sum_across`].
     gathered: RefCell<Vec<f64>>,
+    /// Seconds spent in the exchanges (waiting for the other processes included).
+    exchanging: Cell<f64>,
 }
 
 impl Halo {
@@ -153,6 +156,7 @@ impl Halo {
             places,
             layout,
             gathered: RefCell::new(Vec::new()),
+            exchanging: Cell::new(0.0),
         })
     }
 
@@ -186,6 +190,7 @@ impl Halo {
         for (o, &i) in self.out.iter_mut().zip(&self.send) {
             *o = x[i];
         }
+        let t0 = Instant::now();
         self.comm.all_to_all_varcount_into(
             &Partition::new(&self.out[..], &self.send_counts[..], &self.send_displs[..]),
             &mut PartitionMut::new(
@@ -194,6 +199,7 @@ impl Halo {
                 &self.recv_displs[..],
             ),
         );
+        self.count(t0);
     }
 
     /// Adds the copies of `y` into their owners' entries (each owner in rank order of the
@@ -202,6 +208,7 @@ impl Halo {
         let copies = &mut y[self.owned..];
         self.back.copy_from_slice(copies);
         copies.fill(0.0);
+        let t0 = Instant::now();
         self.comm.all_to_all_varcount_into(
             &Partition::new(&self.back[..], &self.recv_counts[..], &self.recv_displs[..]),
             &mut PartitionMut::new(
@@ -210,6 +217,7 @@ impl Halo {
                 &self.send_displs[..],
             ),
         );
+        self.count(t0);
         for (&i, o) in self.send.iter().zip(&self.out) {
             y[i] += o;
         }
@@ -236,6 +244,17 @@ impl Halo {
         }
     }
 
+    /// Seconds spent in the exchanges since the plan was made (waiting for the other
+    /// processes included): what the scaling benchmark reports as communication.
+    pub fn exchange_seconds(&self) -> f64 {
+        self.exchanging.get()
+    }
+
+    fn count(&self, since: Instant) {
+        self.exchanging
+            .set(self.exchanging.get() + since.elapsed().as_secs_f64());
+    }
+
     /// The largest of every process's `x` (exact, whatever the order).
     pub fn max_across(&self, x: f64) -> f64 {
         let mut max = x;
@@ -257,7 +276,9 @@ impl Halo {
             all.resize(size * partial.len(), 0.0);
         }
         let all = &mut all[..size * partial.len()];
+        let t0 = Instant::now();
         self.comm.all_gather_into(&*partial, all);
+        self.count(t0);
         partial.fill(0.0);
         for part in all.chunks_exact(partial.len()) {
             for (p, v) in partial.iter_mut().zip(part) {

@@ -30,6 +30,8 @@ pub struct DistributedSolver {
     warm: bool,
     rank: usize,
     stats: Stats,
+    /// Seconds the last solve spent in exchanges with the other processes.
+    exchange_seconds: f64,
     trace: Vec<TracePoint>,
     r: Vec<f64>,
     u: Vec<f64>,
@@ -93,6 +95,7 @@ impl DistributedSolver {
             warm: false,
             rank,
             stats,
+            exchange_seconds: 0.0,
             trace: Vec::new(),
             r: Vec::new(),
             u: Vec::new(),
@@ -125,6 +128,7 @@ impl DistributedSolver {
             self.split.cold_start(&mut self.state);
         }
         let before = self.split.linear_iterations();
+        let exchanged = self.split.exchange_seconds();
         let out = run(&mut self.split, &mut self.state, &self.engine, t0)
             .map_err(|_| failure(&mut self.split))?;
         self.split
@@ -147,6 +151,7 @@ impl DistributedSolver {
             ..Default::default()
         };
         self.trace = out.trace;
+        self.exchange_seconds = self.split.exchange_seconds() - exchanged;
         Ok(status)
     }
 
@@ -168,6 +173,12 @@ impl DistributedSolver {
     /// The last solve's statistics (the same on every process, but for the timings).
     pub fn stats(&self) -> &Stats {
         &self.stats
+    }
+
+    /// Seconds of the last solve spent in exchanges with the other processes, waiting for
+    /// them included (the rest of `stats().solve_seconds` is this process's own work).
+    pub fn exchange_seconds(&self) -> f64 {
+        self.exchange_seconds
     }
 
     /// The last solve's trace, when the settings ask for one.

@@ -120,6 +120,11 @@ impl DistributedSplitting {
         &self.sol
     }
 
+    /// Seconds spent in exchanges with the other processes since the splitting was built.
+    pub fn exchange_seconds(&self) -> f64 {
+        self.system.halo().exchange_seconds()
+    }
+
     /// Conjugate-gradient iterations since the splitting was built.
     pub fn linear_iterations(&self) -> usize {
         self.linear_iterations

@@ -15,10 +15,8 @@
 //! cluster the same command runs with a hostfile (`mpirun --hostfile hosts -np 64 ...`).
 
 #[path = "../tests/common/mod.rs"]
-#[allow(dead_code)]
 mod common;
 #[path = "extreme/scenes.rs"]
-#[allow(dead_code)]
 mod scenes;
 
 use cadmm::distributed::{DistributedSolver, RankProblem};

@@ -4,7 +4,7 @@
 //! `DistributedSolver`. The piles are those of `examples/scale.rs` (lattice or irregular).
 //! Each process prints one JSON line: its part, its timings (setup, solve, and the share of
 //! the solve spent in exchanges with the other processes, waiting included) and its peak
-//! memory; the iterations, status and error are every process's.
+//! memory (before the check); the iterations, status and error are every process's.
 //!
 //! ```sh
 //! cargo build --release --features mpi --example distributed
@@ -236,11 +236,14 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    let peak = peak_mb();
     let checked = args.check.then(|| {
         let r = gather(&world, solver.r(), &contact_ids, 3);
         let v = gather(&world, solver.v(), &ids, 6);
-        let whole = scene.as_ref().expect("kept for the check").global();
-        common::global_error_sparse(&whole, &r, &v)
+        (rank == 0).then(|| {
+            let whole = scene.as_ref().expect("kept for the check").global();
+            common::global_error_sparse(&whole, &r, &v)
+        })
     });
     let s = solver.stats();
     println!(
@@ -254,10 +257,10 @@ fn main() -> ExitCode {
         s.error,
         s.solve_seconds,
         solver.exchange_seconds(),
-        peak_mb(),
-        match checked {
-            Some(e) if rank == 0 => format!("{e:e}"),
-            _ => "null".into(),
+        peak,
+        match checked.flatten() {
+            Some(e) => format!("{e:e}"),
+            None => "null".into(),
         }
     );
     ExitCode::SUCCESS

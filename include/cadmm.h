@@ -482,7 +482,8 @@ cadmm_result cadmm_distributed_solver_warm_start(struct cadmm_distributed_solver
 #if defined(CADMM_WITH_MPI)
 /**
  * Solves (collective); `*status` receives how the solve ended, the same on every
- * process. Errors: `CADMM_ERR_NULL_POINTER` (`status`, after the solve),
+ * process. The solve starts from `cadmm_distributed_solver_warm_start`'s point when it
+ * was called since the last solve, from zero otherwise. Errors: `CADMM_ERR_NULL_POINTER` (`status`, after the solve),
  * `CADMM_ERR_NOT_POSITIVE_DEFINITE`.
  */
 cadmm_result cadmm_distributed_solver_solve(struct cadmm_distributed_solver *sv,
@@ -495,7 +496,7 @@ cadmm_result cadmm_distributed_solver_solve(struct cadmm_distributed_solver *sv,
  * velocities `u` of its contacts (`3 n_contacts` each) and velocities `v` of its bodies;
  * any may be NULL to skip it. Errors: `CADMM_ERR_NULL_POINTER` (`sv`).
  */
-cadmm_result cadmm_distributed_solver_get_solution(struct cadmm_distributed_solver *sv,
+cadmm_result cadmm_distributed_solver_get_solution(const struct cadmm_distributed_solver *sv,
                                                    double *r,
                                                    double *u,
                                                    double *v);
@@ -507,14 +508,14 @@ cadmm_result cadmm_distributed_solver_get_solution(struct cadmm_distributed_solv
  * process but for the timings). Set `out->struct_size = sizeof(cadmm_stats)` first.
  * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE`.
  */
-cadmm_result cadmm_distributed_solver_get_stats(struct cadmm_distributed_solver *sv,
+cadmm_result cadmm_distributed_solver_get_stats(const struct cadmm_distributed_solver *sv,
                                                 struct cadmm_stats *out);
 #endif
 
 #if defined(CADMM_WITH_MPI)
 /**
  * The message of the last failed call on this solver ("" when none); valid until the
- * next call on it. NULL for a NULL solver.
+ * next failing call on it. A NULL solver gets a static message saying so.
  */
 const char *cadmm_distributed_solver_last_error(const struct cadmm_distributed_solver *sv);
 #endif

@@ -227,6 +227,27 @@ unsafe fn with_solver(
     })
 }
 
+/// [`with_solver`] for the calls that only read the solver.
+///
+/// # Safety
+/// As for [`with_solver`].
+unsafe fn with_solver_ref(
+    sv: *const cadmm_distributed_solver,
+    body: impl FnOnce(&cadmm_distributed_solver) -> FfiResult,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("sv", sv)?;
+        // SAFETY: a live handle by contract.
+        let sv = unsafe { &*sv };
+        let outcome =
+            catch(|| body(sv)).unwrap_or_else(|panic| Err(Failure::new(CADMM_ERR_PANIC, panic)));
+        if let Err(failure) = &outcome {
+            sv.record(&failure.message);
+        }
+        outcome
+    })
+}
+
 /// Starts the next solve from impulses `r` of this process's contacts (`3 n_contacts`)
 /// and, unless NULL, velocities `v` of its bodies (collective). Errors:
 /// `CADMM_ERR_NULL_POINTER` (`r`), `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_VALUE`.
@@ -257,7 +278,8 @@ pub unsafe extern "C" fn cadmm_distributed_solver_warm_start(
 }
 
 /// Solves (collective); `*status` receives how the solve ended, the same on every
-/// process. Errors: `CADMM_ERR_NULL_POINTER` (`status`, after the solve),
+/// process. The solve starts from `cadmm_distributed_solver_warm_start`'s point when it
+/// was called since the last solve, from zero otherwise. Errors: `CADMM_ERR_NULL_POINTER` (`status`, after the solve),
 /// `CADMM_ERR_NOT_POSITIVE_DEFINITE`.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_distributed_solver_solve(
@@ -280,12 +302,12 @@ pub unsafe extern "C" fn cadmm_distributed_solver_solve(
 /// any may be NULL to skip it. Errors: `CADMM_ERR_NULL_POINTER` (`sv`).
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_distributed_solver_get_solution(
-    sv: *mut cadmm_distributed_solver,
+    sv: *const cadmm_distributed_solver,
     r: *mut f64,
     u: *mut f64,
     v: *mut f64,
 ) -> cadmm_result {
-    let body = |sv: &mut cadmm_distributed_solver| -> FfiResult {
+    let body = |sv: &cadmm_distributed_solver| -> FfiResult {
         let s = &sv.solver;
         let parts = [(r, "r", s.r()), (u, "u", s.u()), (v, "v", s.v())];
         for (ptr, what, data) in parts {
@@ -302,7 +324,7 @@ pub unsafe extern "C" fn cadmm_distributed_solver_get_solution(
         Ok(())
     };
     // SAFETY: the caller's contract, forwarded.
-    unsafe { with_solver(sv, body) }
+    unsafe { with_solver_ref(sv, body) }
 }
 
 /// Fills `*out` with the statistics of the last solve (not collective; the same on every
@@ -310,26 +332,25 @@ pub unsafe extern "C" fn cadmm_distributed_solver_get_solution(
 /// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE`.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_distributed_solver_get_stats(
-    sv: *mut cadmm_distributed_solver,
+    sv: *const cadmm_distributed_solver,
     out: *mut cadmm_stats,
 ) -> cadmm_result {
     // SAFETY: the caller's contract, forwarded.
-    let body = |sv: &mut cadmm_distributed_solver| unsafe {
-        super::solver::put_stats(out, sv.solver.stats())
-    };
+    let body =
+        |sv: &cadmm_distributed_solver| unsafe { super::solver::put_stats(out, sv.solver.stats()) };
     // SAFETY: the caller's contract, forwarded.
-    unsafe { with_solver(sv, body) }
+    unsafe { with_solver_ref(sv, body) }
 }
 
 /// The message of the last failed call on this solver ("" when none); valid until the
-/// next call on it. NULL for a NULL solver.
+/// next failing call on it. A NULL solver gets a static message saying so.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_distributed_solver_last_error(
     sv: *const cadmm_distributed_solver,
 ) -> *const c_char {
     super::panic::guard_value(std::ptr::null(), || {
         if sv.is_null() {
-            return std::ptr::null();
+            return c"cadmm_distributed_solver_last_error: the solver pointer is NULL".as_ptr();
         }
         // SAFETY: a live handle by contract.
         unsafe { (*sv).last_error.borrow().as_ptr() }

@@ -5,7 +5,7 @@
 //! (delta tiny, corrected by one step of iterative refinement).
 
 use super::{
-    active_rows, check_vector, count_rows, de_saxce_shift, initial_shift, rows_missing,
+    active_rows, check_vector, count_rows, de_saxce_shift, initial_shift, prox_input, rows_missing,
     ContactForm, NewValues,
 };
 use crate::admm::{EngineState, Splitting};
@@ -496,26 +496,14 @@ impl Splitting for GlobalSplitting {
 
     fn y_step(&self, ax: &[f64], zeta: &[f64], y: &mut [f64]) {
         for (i, &mu) in self.p.mu.iter().enumerate() {
-            let a = get3(ax, i);
-            let c = get3(&self.c, i);
-            let z = get3(zeta, i);
-            if self.screened[i] {
-                // No projection: the dual update then leaves zeta, the impulse, at zero.
-                set3(
-                    y,
-                    i,
-                    [a[0] - c[0] + z[0], a[1] - c[1] + z[1], a[2] - c[2] + z[2]],
-                );
-                continue;
-            }
-            set3(
-                y,
-                i,
-                project_dual_cone(
-                    [a[0] - c[0] + z[0], a[1] - c[1] + z[1], a[2] - c[2] + z[2]],
-                    mu,
-                ),
-            );
+            let input = prox_input(ax, &self.c, zeta, i);
+            // A screened contact is not projected: the dual update then leaves zeta, the
+            // impulse, at zero.
+            let out = match self.screened[i] {
+                true => input,
+                false => project_dual_cone(input, mu),
+            };
+            set3(y, i, out);
         }
     }
 

@@ -173,5 +173,11 @@ pub(crate) fn initial_shift_of(mu: &[f64], norm_mu: f64, frobenius: f64, phi: &m
     }
 }
 
+/// Contact `i`'s point the global form's y-step projects: `(A x - c + zeta)_i`.
+pub(crate) fn prox_input(ax: &[f64], c: &[f64], zeta: &[f64], i: usize) -> [f64; 3] {
+    let (a, c, z) = (get3(ax, i), get3(c, i), get3(zeta, i));
+    [a[0] - c[0] + z[0], a[1] - c[1] + z[1], a[2] - c[2] + z[2]]
+}
+
 /// Rejects a vector of the wrong length or with a non-finite entry.
 pub(crate) use crate::problem::check_len as check_vector;

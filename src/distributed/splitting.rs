@@ -9,7 +9,7 @@ use super::problem::{RankError, RankProblem};
 use super::system::DistributedGram;
 use crate::admm::{EngineState, Splitting};
 use crate::cone::{get3, project_dual_cone, set3};
-use crate::contact::{de_saxce_shift, inexact_stop, initial_shift_of};
+use crate::contact::{de_saxce_shift, inexact_stop, initial_shift_of, prox_input};
 use crate::csc::dot;
 use crate::measure::{complementarity_sq, Floors, GlobalSums, Scales};
 use crate::types::Error;
@@ -56,18 +56,11 @@ impl DistributedSplitting {
         // all-frictionless problem out; here they stay, inert, docs/algorithms.md §16).
         let active = vec![1.0; m];
         let system = DistributedGram::new(comm, &part, active.clone())?;
-        let mut blocks = Vec::with_capacity(part.dofs.len());
-        let (mut first, mut offset) = (0, 0);
-        for &k in &part.dofs {
-            blocks.push((first, k, offset));
-            first += k;
-            offset += k * k;
-        }
         let mut norms = [dot(&part.mu, &part.mu), dot(&part.h_values, &part.h_values)];
         system.halo().sum_across(&mut norms);
         let n = part.n_velocities();
         let mut split = Self {
-            blocks,
+            blocks: system.blocks().to_vec(),
             sol: vec![0.0; n],
             rhs: vec![0.0; n],
             mv: vec![0.0; n],
@@ -264,14 +257,10 @@ impl Splitting for DistributedSplitting {
 
     fn y_step(&self, ax: &[f64], zeta: &[f64], y: &mut [f64]) {
         for (i, &mu) in self.part.mu.iter().enumerate() {
-            let (a, c, z) = (get3(ax, i), get3(&self.c, i), get3(zeta, i));
             set3(
                 y,
                 i,
-                project_dual_cone(
-                    [a[0] - c[0] + z[0], a[1] - c[1] + z[1], a[2] - c[2] + z[2]],
-                    mu,
-                ),
+                project_dual_cone(prox_input(ax, &self.c, zeta, i), mu),
             );
         }
     }

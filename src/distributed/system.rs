@@ -124,6 +124,11 @@ impl DistributedGram {
 }
 
 impl DistributedGram {
+    /// Owned bodies: first velocity, velocities, and the offset of their dense blocks.
+    pub fn blocks(&self) -> &[(usize, usize, usize)] {
+        &self.blocks
+    }
+
     /// The exchange plan (for the sums of the solve around the system).
     pub fn halo(&self) -> &Halo {
         &self.halo

@@ -8,8 +8,11 @@
 //!
 //! ```sh
 //! cargo build --release --features mpi --example distributed
-//! mpirun -np 2 target/release/examples/distributed --kind lattice --dims 20x20x84 --tol 1e-4
+//! mpirun -np 2 target/release/examples/distributed --kind lattice --dims 26x26x51 --tol 1e-4
 //! ```
+//!
+//! `--islands off` makes the whole pile the shared problem even on one process (by
+//! default one process solves its islands alone, by the one-process solver).
 //!
 //! `cli/bench/distributed_scale.py` runs the strong and weak scaling series with it. On a
 //! cluster the same command runs with a hostfile (`mpirun --hostfile hosts -np 64 ...`).
@@ -31,6 +34,9 @@ struct Args {
     dims: (usize, usize, usize),
     tol: f64,
     time_limit: f64,
+    /// Islands inside one process solved there (on one process: the whole pile, by the
+    /// one-process solver); off, the whole pile is the shared problem.
+    islands: bool,
     /// Gather the answer on process 0 and measure it on the whole problem with the
     /// independent measure of `tests/common`.
     check: bool,
@@ -42,6 +48,7 @@ fn parse() -> Result<Args, String> {
         dims: (10, 10, 10),
         tol: 1e-4,
         time_limit: f64::INFINITY,
+        islands: true,
         check: false,
     };
     let mut it = std::env::args().skip(1);
@@ -64,6 +71,7 @@ fn parse() -> Result<Args, String> {
                 args.dims = (x, y, z);
             }
             "--tol" => args.tol = value.parse().map_err(|e| format!("--tol: {e}"))?,
+            "--islands" if value == "on" || value == "off" => args.islands = value == "on",
             "--time-limit" => {
                 args.time_limit = value.parse().map_err(|e| format!("--time-limit: {e}"))?
             }
@@ -218,6 +226,7 @@ fn main() -> ExitCode {
     let settings = Settings {
         tolerance: args.tol,
         time_limit: args.time_limit,
+        islands: args.islands,
         ..Settings::default()
     };
     let t0 = Instant::now();

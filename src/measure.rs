@@ -189,6 +189,11 @@ pub(crate) struct GlobalTerms<'a> {
 impl GlobalTerms<'_> {
     /// The measure of these products ([`GlobalSums::error`]).
     pub fn error(&self, floors: Floors, scales: &mut Scales) -> f64 {
+        self.sums().error(floors, scales)
+    }
+
+    /// The squared norms the measure is made of.
+    pub fn sums(&self) -> GlobalSums {
         let mut eq = 0.0;
         for ((mv, hr), f) in self.mv.iter().zip(self.hr).zip(self.f) {
             eq += (-mv + hr + f).powi(2);
@@ -202,7 +207,6 @@ impl GlobalTerms<'_> {
             u: dot(self.u, self.u),
             r: dot(self.r, self.r),
         }
-        .error(floors, scales)
     }
 }
 

@@ -31,8 +31,37 @@ fn pile(name: &str) -> scenes::Scene {
     match name {
         "lattice" => scenes::pile(12, 8, 4),
         "irregular" => scenes::irregular_pile(12, 10, 4),
+        "islands" => piles_apart(),
         _ => panic!("unknown pile {name}"),
     }
+}
+
+/// Small lattice piles standing apart, at x positions inside one slab each on 2 and on 4
+/// processes but one (x 5 to 6), which straddles the slabs' border at x 5.5, and two free
+/// bodies at x 0 and 11 that fix the slabs' widths (the test's x range is 0 to 11). Each
+/// process has islands of its own; on 4 processes two have no contact in the shared
+/// problem.
+fn piles_apart() -> scenes::Scene {
+    let mut scene = scenes::Scene::default();
+    for (k, x) in [0.5, 3.0, 5.0, 6.5, 9.0].into_iter().enumerate() {
+        let small = scenes::pile(2, 2, 3);
+        let (dx, dy) = (x, 4.0 * k as f64);
+        let first = scene.bodies.len();
+        for mut b in small.bodies {
+            b.x = [b.x[0] + dx, b.x[1] + dy, b.x[2]];
+            scene.bodies.push(b);
+        }
+        for mut c in small.contacts {
+            c.a += first;
+            c.b = c.b.map(|b| b + first);
+            c.point = [c.point[0] + dx, c.point[1] + dy, c.point[2]];
+            scene.contacts.push(c);
+        }
+    }
+    for x in [0.0, 11.0] {
+        scene.body(1.0, [0.1; 3], [x, -10.0, 5.0]);
+    }
+    scene
 }
 
 /// The slab of each body and contact on `size` processes: bodies by their x position in
@@ -95,6 +124,8 @@ struct Answer {
     v: Vec<f64>,
     files: Vec<String>,
     statuses: Vec<String>,
+    /// Contacts in the shared problem, all processes together.
+    shared: usize,
 }
 
 fn read_answer(dir: &Path, np: usize, p: &GlobalProblem) -> Answer {
@@ -103,6 +134,7 @@ fn read_answer(dir: &Path, np: usize, p: &GlobalProblem) -> Answer {
         v: vec![f64::NAN; p.n()],
         files: Vec::new(),
         statuses: Vec::new(),
+        shared: 0,
     };
     for rank in 0..np {
         let text = std::fs::read_to_string(dir.join(format!("rank-{rank}.txt"))).unwrap();
@@ -122,6 +154,7 @@ fn read_answer(dir: &Path, np: usize, p: &GlobalProblem) -> Answer {
                         answer.v[6 * b + k] = bits(words[2 + k]);
                     }
                 }
+                "shared" => answer.shared += words[1].parse::<usize>().unwrap(),
                 _ => answer.statuses.push(words[1..].join(" ")),
             }
         }
@@ -161,7 +194,7 @@ fn piles_split_into_slabs_solve_as_one_process() {
     if std::env::var_os(CHILD).is_some() {
         return child();
     }
-    for kind in ["lattice", "irregular"] {
+    for kind in ["lattice", "irregular", "islands"] {
         let p = pile(kind).global();
         // The one-process solver by both backends: how far apart two of its own answers
         // to the tolerance are (a pile at rest is ill-conditioned, its solutions to 1e-6
@@ -176,9 +209,10 @@ fn piles_split_into_slabs_solve_as_one_process() {
             let s = one.solution().clone();
             let e_one = common::global_error_sparse(&p, &s.r, &s.v);
             assert!(e_one <= TOLERANCE, "{kind}: one process, error {e_one:e}");
-            s
+            (s, one.stats().islands)
         };
-        let (reference, direct) = (one(LinearSolver::Iterative), one(LinearSolver::Direct));
+        let ((reference, islands), (direct, _)) =
+            (one(LinearSolver::Iterative), one(LinearSolver::Direct));
         let spread = difference(&direct.v, &reference.v, free_velocity(&p));
         let mut files = Vec::new();
         for (np, tag) in [(1, "a"), (2, "a"), (4, "a"), (2, "b")] {
@@ -209,6 +243,21 @@ fn piles_split_into_slabs_solve_as_one_process() {
                 dv <= (2.0 * spread).max(100.0 * TOLERANCE),
                 "{kind} on {np}: v differs by {dv:e}, the one-process backends by {spread:e}"
             );
+            // Islands inside one process are solved there: the shared problem holds only
+            // the islands that straddle processes (here, of the piles apart, the one over
+            // x 5.5: 24 contacts).
+            assert!(
+                answer.statuses[0].ends_with(&format!("islands {islands}")),
+                "{kind} on {np}: {} (one process: {islands} islands)",
+                answer.statuses[0]
+            );
+            if kind == "islands" {
+                assert_eq!(
+                    answer.shared,
+                    if np == 1 { 0 } else { 24 },
+                    "{kind} on {np}"
+                );
+            }
             files.push((np, answer.files));
         }
         // Two runs on two processes: bitwise the same.
@@ -241,9 +290,10 @@ fn child() {
             .join(" ")
     };
     let mut text = format!(
-        "status {status:?} {} iterations error {:e}\n",
-        stats.iterations, stats.error
+        "status {status:?} {} iterations error {:e} islands {}\n",
+        stats.iterations, stats.error, stats.islands
     );
+    text += &format!("shared {}\n", solver.n_shared_contacts());
     let contacts = (0..contact_rank.len()).filter(|&c| contact_rank[c] == rank);
     for (k, c) in contacts.enumerate() {
         text += &format!("contact {c} {}\n", hex(&solver.r()[3 * k..3 * k + 3]));

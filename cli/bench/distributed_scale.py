@@ -1,14 +1,16 @@
 #!/usr/bin/python3
 """Scaling of the distributed solve (feature mpi): strong scaling (one pile on 1, 2, 4
 processes) and weak scaling (the pile grows with the processes, contacts per process fixed),
-with the one-process solver on the same strong pile side by side.
+with the one-process solver (`cadmm solve`, default settings) on the same strong pile side
+by side. The distributed runs switch islands off, so that one process runs the distributed
+solve as well: the strong series is the distributed solve's own scaling.
 
     cargo build --release --features mpi --example distributed
     cargo build --release -p cadmm-cli --all-features
-    cargo run --release --features fclib --example scale -- --dump target/dist --sizes 20x20x86
-    /usr/bin/python3 cli/bench/distributed_scale.py [--kind lattice] [--strong 20x20x86]
-        [--weak 10x20x43] [--np 1,2,4] [--tol 1e-4] [--repeat 3]
-        [--one-process target/dist/lattice-pile-N.hdf5] [--big 20x20x860 --big-np 4]
+    cargo run --release --features fclib --example scale -- --dump target/dist --sizes 26x26x51
+    /usr/bin/python3 cli/bench/distributed_scale.py [--kind lattice] [--strong 26x26x51]
+        [--weak 13x26x51] [--np 1,2,4] [--tol 1e-4] [--repeat 3]
+        [--one-process target/dist/lattice-pile-100776.hdf5] [--big 55x55x112 --big-np 4]
         [--out target/distributed.jsonl] [--plot docs/perf/distributed.png]
 
 Each configuration runs `mpirun --oversubscribe -np K examples/distributed`, once with
@@ -33,9 +35,13 @@ def dims(text):
     return x, y, z
 
 
-def run(kind, d, np, tol, check):
+def run(kind, d, np, tol, check, time_limit=None):
+    # Islands off: one process runs the distributed solve too (with islands on it would
+    # solve a one-island pile by the one-process solver, which runs side by side below).
     cmd = ["mpirun", "--oversubscribe", "-np", str(np), EXAMPLE, "--kind", kind,
-           "--dims", "%dx%dx%d" % d, "--tol", str(tol)] + (["--check"] if check else [])
+           "--dims", "%dx%dx%d" % d, "--tol", str(tol), "--islands", "off"] + (
+               ["--check"] if check else []) + (
+               ["--time-limit", str(time_limit)] if time_limit else [])
     out = subprocess.run(cmd, capture_output=True, text=True, env=ENV, timeout=3600)
     if out.returncode != 0:
         sys.exit("distributed_scale: %s failed:\n%s\n%s" % (" ".join(cmd), out.stdout, out.stderr))
@@ -58,7 +64,7 @@ def run(kind, d, np, tol, check):
 
 
 def one_process(path, tol):
-    cmd = [CLI, "solve", "--tol", str(tol), "--linear-solver", "iterative", "--json", path]
+    cmd = [CLI, "solve", "--tol", str(tol), "--json", path]
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=3600)
     if out.returncode != 0:
         sys.exit("distributed_scale: %s failed: %s" % (" ".join(cmd), out.stderr))
@@ -124,14 +130,15 @@ def plot(rows, path, cores):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--kind", default="lattice")
-    ap.add_argument("--strong", type=dims, default=(20, 20, 86))
-    ap.add_argument("--weak", type=dims, default=(10, 20, 43), help="the pile of one process")
+    ap.add_argument("--strong", type=dims, default=(26, 26, 51))
+    ap.add_argument("--weak", type=dims, default=(13, 26, 51), help="the pile of one process")
     ap.add_argument("--np", default="1,2,4")
     ap.add_argument("--tol", type=float, default=1e-4)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--one-process", help="FCLib file of the strong pile (examples/scale.rs)")
     ap.add_argument("--big", type=dims, help="one large pile, run once with --check")
     ap.add_argument("--big-np", type=int, default=4)
+    ap.add_argument("--big-time-limit", type=float, default=900.0)
     ap.add_argument("--out", default=os.path.join(ROOT, "target", "distributed.jsonl"))
     ap.add_argument("--plot")
     ap.add_argument("--replot", help="plot the rows of this JSONL file only")
@@ -173,7 +180,7 @@ def main():
         r["speedup"] = b["solve_seconds"] / r["solve_seconds"]
         r["per_iteration_speedup"] = b["per_iteration_ms"] / r["per_iteration_ms"]
     if a.big:
-        big = run(a.kind, a.big, a.big_np, a.tol, True)
+        big = run(a.kind, a.big, a.big_np, a.tol, True, a.big_time_limit)
         big.update(series="big", tol=a.tol)
         rows.append(big)
     os.makedirs(os.path.dirname(os.path.abspath(a.out)), exist_ok=True)

@@ -165,6 +165,11 @@ impl Halo {
         self.owned
     }
 
+    /// Owned velocities other processes hold copies of (each once per process holding it).
+    pub fn shared_velocities(&self) -> &[usize] {
+        &self.send
+    }
+
     /// Length of this process's vectors: owned velocities, then copies.
     pub fn local(&self) -> usize {
         self.owned + self.back.len()

@@ -18,6 +18,7 @@
 //! error measure of the whole problem on sums across processes.
 
 mod halo;
+mod islands;
 mod problem;
 mod solver;
 mod splitting;

@@ -2,29 +2,53 @@
 //! [`DistributedSolver`] from its part and calls the same methods in the same order; each
 //! gets back its own contacts' impulses and velocities and its own bodies' velocities,
 //! and every process the same status, iterations and error.
+//!
+//! A process's islands that no other process's contacts reach ([`RankSplit`]) are solved
+//! by that process alone, by the one-process [`Solver`] with everything it does for an
+//! island (free motion, Newton on small islands, a factorized backend); the rest, the
+//! shared problem, by ADMM across the processes. As for one process's islands, the whole
+//! problem's measure judges the assembled answer, and when it misses the tolerance both
+//! are solved again, warm, to a tighter one.
 
 use super::halo::agree_on;
+use super::islands::{RankSplit, Slot};
 use super::problem::{RankError, RankProblem};
 use super::splitting::DistributedSplitting;
 use crate::admm::{run, EngineSettings, EngineState, Splitting};
-use crate::problem::check_len;
-use crate::settings::{InitialRho, LinearSolver, NewtonUse, Settings};
+use crate::measure::{Floors, GlobalSums, GlobalTerms, Scales};
+use crate::problem::{check_len, GlobalProblem, Problem};
+use crate::settings::{InitialRho, LinearSolver, NewtonUse, Resolved, Settings};
+use crate::solver::Solver;
+use crate::tuning::{ISLAND_ROUNDS, ISLAND_TIGHTENING, ROUND_OFF_MARGIN};
 use crate::types::{ErrorKind, Stats, Status, TracePoint};
 use mpi::topology::{Communicator, SimpleCommunicator};
 use std::time::Instant;
 
 /// ADMM on a global contact problem whose bodies and contacts are shared out among MPI
 /// processes (docs/algorithms.md §16): the matrix-free v-update of one process's
-/// iterative backend, across processes.
+/// iterative backend, across processes; islands inside one process solved there.
 ///
 /// Every process of the communicator must make the same calls with the same settings:
 /// each call that communicates returns on all of them, with the same outcome. An error
 /// one process meets (a part that names an unknown body, a non-finite value) is every
 /// process's [`RankError`], naming that process.
 pub struct DistributedSolver {
+    /// The shared problem's splitting (this process's rows of it, maybe none).
     split: DistributedSplitting,
+    /// This process's own islands, and their problem (the solver keeps its own copy,
+    /// which it does not hand out; the measure of the whole reads this one).
+    own: Option<Solver>,
+    own_problem: Option<GlobalProblem>,
+    /// Where each of this process's contacts and bodies went.
+    contacts: Vec<Slot>,
+    bodies: Vec<(Slot, usize)>,
+    n_velocities: usize,
+    /// Contacts of the shared problem, on all processes together.
+    shared_contacts: usize,
+    /// Islands solved inside one process, on all processes together.
+    own_islands: usize,
     settings: Settings,
-    engine: EngineSettings,
+    resolved: Resolved,
     state: EngineState,
     rho0: f64,
     warm: bool,
@@ -33,8 +57,12 @@ pub struct DistributedSolver {
     /// Seconds the last solve spent in exchanges with the other processes.
     exchange_seconds: f64,
     trace: Vec<TracePoint>,
+    /// The shared problem's impulses and relative velocities (this process's rows).
+    shared_r: Vec<f64>,
+    shared_u: Vec<f64>,
     r: Vec<f64>,
     u: Vec<f64>,
+    v: Vec<f64>,
 }
 
 impl DistributedSolver {
@@ -43,11 +71,12 @@ impl DistributedSolver {
     /// talks on its own duplicate of `comm`, so the host's messages never mix with its.
     ///
     /// Settings: the penalty rules, Anderson acceleration and limits apply as for one
-    /// process; the v-update is always the matrix-free one (`linear_solver` `auto` or
-    /// `iterative`), the first penalty is Acary's, normal or given, and no Newton phase
-    /// runs (a Newton polish asked for is left out, as one process's matrix-free backend
-    /// does). Other choices are an [`crate::Error::Unsupported`] or
-    /// [`crate::Error::InvalidSetting`] error, on every process.
+    /// process. The shared problem's v-update is always the matrix-free one
+    /// (`linear_solver` `auto` or `iterative`), its first penalty is Acary's, normal or
+    /// given, and no Newton phase runs on it (as one process's matrix-free backend); a
+    /// process's own islands are solved with the settings as given. Other choices are an
+    /// [`crate::Error::Unsupported`] or [`crate::Error::InvalidSetting`] error, on every
+    /// process. With `islands` off, the whole problem is shared.
     pub fn new(
         comm: &SimpleCommunicator,
         part: RankProblem,
@@ -56,7 +85,23 @@ impl DistributedSolver {
         let t0 = Instant::now();
         let rank = comm.rank() as usize;
         agree_on(comm, supported(&settings))?;
-        let mut split = DistributedSplitting::new(comm, part)?;
+        let n_velocities = part.n_velocities();
+        let cut = RankSplit::new(comm, part, settings.islands)?;
+        let mut split = DistributedSplitting::new(comm, cut.shared)?;
+        let own_problem = cut.own;
+        let own = own_problem
+            .as_ref()
+            .map(|p| Solver::new(Problem::Global(p.clone()), settings.clone()));
+        let built = own
+            .as_ref()
+            .map_or(Ok(()), |o| o.as_ref().map(|_| ()).map_err(Clone::clone));
+        split.agree_on(built)?;
+        let own = own.map(|o| o.expect("agreed"));
+        let mut counts = [
+            split.part().n_contacts() as f64,
+            own.as_ref().map_or(0.0, |o| o.stats().islands as f64),
+        ];
+        split.sum_across(&mut counts);
         let resolved = settings.resolved();
         let rho0 = match resolved.initial_rho {
             InitialRho::Normal => 1.0,
@@ -68,11 +113,6 @@ impl DistributedSolver {
         } else {
             1.0 // H = 0: any penalty will do
         };
-        let engine = settings.engine_settings(&resolved, false);
-        let engine = EngineSettings {
-            handover: None,
-            ..engine
-        };
         split.set_rho(rho0).map_err(|_| failure(&mut split))?;
         let l = split.dim();
         let stats = Stats {
@@ -83,8 +123,15 @@ impl DistributedSolver {
         };
         Ok(Self {
             split,
+            own,
+            own_problem,
+            contacts: cut.contacts,
+            bodies: cut.bodies,
+            n_velocities,
+            shared_contacts: counts[0] as usize,
+            own_islands: counts[1] as usize,
             settings,
-            engine,
+            resolved,
             state: EngineState {
                 y: vec![0.0; l],
                 zeta: vec![0.0; l],
@@ -97,8 +144,11 @@ impl DistributedSolver {
             stats,
             exchange_seconds: 0.0,
             trace: Vec::new(),
+            shared_r: Vec::new(),
+            shared_u: Vec::new(),
             r: Vec::new(),
             u: Vec::new(),
+            v: Vec::new(),
         })
     }
 
@@ -106,15 +156,48 @@ impl DistributedSolver {
     /// and, when given, velocities `v` of its bodies (a collective call). Without it a
     /// solve starts from zero.
     pub fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), RankError> {
-        let part = self.split.part();
-        let checked = check_len("r", r, 3 * part.n_contacts())
-            .and_then(|()| v.map_or(Ok(()), |v| check_len("v", v, part.n_velocities())));
+        let checked = check_len("r", r, 3 * self.contacts.len())
+            .and_then(|()| v.map_or(Ok(()), |v| check_len("v", v, self.n_velocities)));
         self.split.agree_on(checked)?;
+        // Each part's share of r and v.
+        let mut shared_r = vec![0.0; self.state.zeta.len()];
+        let own_size = self
+            .own_problem
+            .as_ref()
+            .map_or((0, 0), |p| (p.n_contacts(), p.n()));
+        let mut own_r = vec![0.0; 3 * own_size.0];
+        for (c, &slot) in self.contacts.iter().enumerate() {
+            let (to, k) = match slot {
+                Slot::Shared(k) => (&mut shared_r, k),
+                Slot::Own(k) => (&mut own_r, k),
+            };
+            to[3 * k..3 * k + 3].copy_from_slice(&r[3 * c..3 * c + 3]);
+        }
+        let parts_v = v.map(|v| {
+            let mut shared_v = vec![0.0; self.split.part().n_velocities()];
+            let mut own_v = vec![0.0; own_size.1];
+            let mut first = 0;
+            for &(slot, k) in &self.bodies {
+                let (to, at) = match slot {
+                    Slot::Shared(at) => (&mut shared_v, at),
+                    Slot::Own(at) => (&mut own_v, at),
+                };
+                to[at..at + k].copy_from_slice(&v[first..first + k]);
+                first += k;
+            }
+            (shared_v, own_v)
+        });
         self.state.rho = self.rho0;
         self.split
             .set_rho(self.rho0)
             .map_err(|_| failure(&mut self.split))?;
-        self.split.warm_start(r, v, &mut self.state);
+        let shared_v = parts_v.as_ref().map(|(s, _)| &s[..]);
+        self.split.warm_start(&shared_r, shared_v, &mut self.state);
+        let own = match &mut self.own {
+            Some(o) => o.warm_start(&own_r, parts_v.as_ref().map(|(_, v)| &v[..])),
+            None => Ok(()),
+        };
+        self.split.agree_on(own)?;
         self.warm = true;
         Ok(())
     }
@@ -129,30 +212,222 @@ impl DistributedSolver {
         }
         let before = self.split.linear_iterations();
         let exchanged = self.split.exchange_seconds();
-        let out = run(&mut self.split, &mut self.state, &self.engine, t0)
-            .map_err(|_| failure(&mut self.split))?;
-        self.split
-            .write_solution(&self.state, &mut self.r, &mut self.u);
-        let status = out.status.unwrap_or(Status::MaxIterations);
-        self.stats = Stats {
-            status,
-            iterations: out.iterations,
-            error: out.error,
-            primal_residual: out.primal,
-            dual_residual: out.dual,
-            rho: self.state.rho,
-            anderson_accepted: out.aa_accepted,
-            anderson_rejected: out.aa_rejected,
-            setup_seconds: self.stats.setup_seconds,
-            rows: self.state.y.len(),
-            islands: 1,
-            solve_seconds: t0.elapsed().as_secs_f64(),
-            linear_iterations: self.split.linear_iterations() - before,
-            ..Default::default()
+        let tol = self.settings.tolerance;
+        let mut part_tol = tol;
+        let mut shared = Stats::default();
+        let (mut error, mut code) = (f64::INFINITY, 0.0);
+        for round in 0..ISLAND_ROUNDS {
+            let shared_status = self.solve_shared(part_tol, t0, &mut shared)?;
+            let own_status = self.solve_own(part_tol, t0)?;
+            let worst = [shared_status, own_status]
+                .into_iter()
+                .map(severity)
+                .fold(0.0, f64::max);
+            code = self.split.max_across(worst);
+            error = self.whole_error();
+            if error <= tol || code > 0.0 || round + 1 == ISLAND_ROUNDS {
+                break;
+            }
+            part_tol *= (tol / error).min(ISLAND_TIGHTENING);
+            self.restart_from_solutions()?;
+        }
+        let status = if code == severity(Some(Status::Infeasible)) {
+            Status::Infeasible
+        } else if error <= tol {
+            Status::Solved
+        } else {
+            status_of(code).unwrap_or(Status::MaxIterations)
         };
-        self.trace = out.trace;
+        self.assemble();
+        self.collect_stats(status, error, shared, before, t0);
         self.exchange_seconds = self.split.exchange_seconds() - exchanged;
         Ok(status)
+    }
+
+    /// ADMM on the shared problem to `tol` (less the round-off margin), when the problem
+    /// has one; its iterations and Anderson counts added to `stats`.
+    fn solve_shared(
+        &mut self,
+        tol: f64,
+        t0: Instant,
+        stats: &mut Stats,
+    ) -> Result<Option<Status>, RankError> {
+        if self.shared_contacts == 0 {
+            return Ok(None);
+        }
+        let settings = Settings {
+            tolerance: tol * (1.0 - ROUND_OFF_MARGIN),
+            ..self.settings.clone()
+        };
+        let engine = EngineSettings {
+            handover: None,
+            ..settings.engine_settings(&self.resolved, false)
+        };
+        let out = run(&mut self.split, &mut self.state, &engine, t0)
+            .map_err(|_| failure(&mut self.split))?;
+        self.split
+            .write_solution(&self.state, &mut self.shared_r, &mut self.shared_u);
+        stats.iterations += out.iterations;
+        stats.anderson_accepted += out.aa_accepted;
+        stats.anderson_rejected += out.aa_rejected;
+        stats.primal_residual = out.primal;
+        stats.dual_residual = out.dual;
+        self.trace = out.trace;
+        Ok(Some(out.status.unwrap_or(Status::MaxIterations)))
+    }
+
+    /// This process's own islands to `tol`, within what is left of the time limit (every
+    /// process learns of an error one met).
+    fn solve_own(&mut self, tol: f64, t0: Instant) -> Result<Option<Status>, RankError> {
+        let outcome = match &mut self.own {
+            Some(own) => {
+                let left = self.settings.time_limit - t0.elapsed().as_secs_f64();
+                let settings = Settings {
+                    tolerance: tol,
+                    time_limit: left.max(f64::MIN_POSITIVE),
+                    ..self.settings.clone()
+                };
+                own.update_settings(settings)
+                    .and_then(|()| own.solve())
+                    .map(Some)
+            }
+            None => Ok(None),
+        };
+        let status = outcome.as_ref().map(|_| ()).map_err(Clone::clone);
+        self.split.agree_on(status)?;
+        Ok(outcome.expect("agreed"))
+    }
+
+    /// The whole problem's measure at the parts' solutions (a collective call): the sums
+    /// it is made of, the shared problem's and the own islands', added across processes.
+    fn whole_error(&mut self) -> f64 {
+        let (shared, finite) = self.split.own_sums(&self.state.zeta, self.state.rho);
+        let mut all = [0.0; 8];
+        all[..7].copy_from_slice(&shared.to_array());
+        all[7] = f64::from(u8::from(!finite));
+        if let (Some(own), Some(p)) = (&self.own, &self.own_problem) {
+            let s = own.solution();
+            let (mut mv, mut hr) = (vec![0.0; s.v.len()], vec![0.0; s.v.len()]);
+            p.m.mul_vec(1.0, &s.v, 0.0, &mut mv);
+            p.h.mul_vec(1.0, &s.r, 0.0, &mut hr);
+            let terms = GlobalTerms {
+                f: &p.f,
+                mv: &mv,
+                hr: &hr,
+                u: &s.u,
+                r: &s.r,
+                mu: &p.mu,
+            };
+            for (a, b) in all.iter_mut().zip(terms.sums().to_array()) {
+                *a += b;
+            }
+            let finite = [&s.r, &s.u, &s.v]
+                .iter()
+                .all(|x| x.iter().all(|v| v.is_finite()));
+            all[7] += f64::from(u8::from(!finite));
+        }
+        self.split.sum_across(&mut all);
+        if all[7] > 0.0 {
+            return f64::INFINITY;
+        }
+        let sums = GlobalSums::from_array(all[..7].try_into().expect("seven sums"));
+        sums.error(Floors::default(), &mut Scales::default())
+    }
+
+    /// Warm starts both parts from their last solutions, for the next round.
+    fn restart_from_solutions(&mut self) -> Result<(), RankError> {
+        let v = self.split.velocities().to_vec();
+        let r = std::mem::take(&mut self.shared_r);
+        self.split.warm_start(&r, Some(&v), &mut self.state);
+        self.shared_r = r;
+        let own = match &mut self.own {
+            Some(own) => {
+                let s = own.solution().clone();
+                own.warm_start(&s.r, Some(&s.v))
+            }
+            None => Ok(()),
+        };
+        self.split.agree_on(own)
+    }
+
+    /// This process's r, u and v from the parts' solutions.
+    fn assemble(&mut self) {
+        let empty = crate::Solution::default();
+        let own = self.own.as_ref().map_or(&empty, Solver::solution);
+        let (r, u) = (&mut self.r, &mut self.u);
+        r.resize(3 * self.contacts.len(), 0.0);
+        u.resize(3 * self.contacts.len(), 0.0);
+        for (c, &slot) in self.contacts.iter().enumerate() {
+            let (from_r, from_u, k) = match slot {
+                Slot::Shared(k) => (&self.shared_r, &self.shared_u, k),
+                Slot::Own(k) => (&own.r, &own.u, k),
+            };
+            r[3 * c..3 * c + 3].copy_from_slice(&from_r[3 * k..3 * k + 3]);
+            u[3 * c..3 * c + 3].copy_from_slice(&from_u[3 * k..3 * k + 3]);
+        }
+        self.v.resize(self.n_velocities, 0.0);
+        let mut first = 0;
+        for &(slot, k) in &self.bodies {
+            let (from, at) = match slot {
+                Slot::Shared(at) => (self.split.velocities(), at),
+                Slot::Own(at) => (&own.v[..], at),
+            };
+            self.v[first..first + k].copy_from_slice(&from[at..at + k]);
+            first += k;
+        }
+    }
+
+    /// The whole solve's statistics, the same on every process but for the timings:
+    /// iterations are the most any process's parts took, counts are totals.
+    fn collect_stats(
+        &mut self,
+        status: Status,
+        error: f64,
+        shared: Stats,
+        linear_before: usize,
+        t0: Instant,
+    ) {
+        let none = Stats::default();
+        let own = self.own.as_ref().map_or(&none, Solver::stats);
+        let iterations = self
+            .split
+            .max_across(shared.iterations.max(own.iterations) as f64);
+        let mut totals = [
+            own.linear_iterations,
+            own.newton_iterations,
+            own.newton_factorizations,
+            own.newton_phases,
+            own.newton_fallbacks,
+            own.refactorizations,
+            own.anderson_accepted,
+            own.anderson_rejected,
+            own.rows + self.state.y.len(),
+        ]
+        .map(|k| k as f64);
+        self.split.sum_across(&mut totals);
+        let [linear, newton_iterations, newton_factorizations, newton_phases, newton_fallbacks, refactorizations, accepted, rejected, rows] =
+            totals.map(|k| k as usize);
+        self.stats = Stats {
+            status,
+            iterations: iterations as usize,
+            error,
+            primal_residual: shared.primal_residual,
+            dual_residual: shared.dual_residual,
+            rho: self.state.rho,
+            anderson_accepted: shared.anderson_accepted + accepted,
+            anderson_rejected: shared.anderson_rejected + rejected,
+            setup_seconds: self.stats.setup_seconds,
+            rows,
+            islands: self.own_islands + usize::from(self.shared_contacts > 0),
+            solve_seconds: t0.elapsed().as_secs_f64(),
+            linear_iterations: self.split.linear_iterations() - linear_before + linear,
+            newton_iterations,
+            newton_factorizations,
+            newton_phases,
+            newton_fallbacks,
+            refactorizations,
+            ..Default::default()
+        };
     }
 
     /// Impulses of this process's contacts (3 per contact, normal first).
@@ -167,10 +442,12 @@ impl DistributedSolver {
 
     /// Velocities of this process's bodies.
     pub fn v(&self) -> &[f64] {
-        self.split.velocities()
+        &self.v
     }
 
     /// The last solve's statistics (the same on every process, but for the timings).
+    /// `islands` counts the islands solved inside one process and the shared problem as
+    /// one.
     pub fn stats(&self) -> &Stats {
         &self.stats
     }
@@ -181,7 +458,7 @@ impl DistributedSolver {
         self.exchange_seconds
     }
 
-    /// The last solve's trace, when the settings ask for one.
+    /// The last solve's trace of the shared problem, when the settings ask for one.
     pub fn trace(&self) -> &[TracePoint] {
         &self.trace
     }
@@ -193,12 +470,18 @@ impl DistributedSolver {
 
     /// Contacts this process owns.
     pub fn n_contacts(&self) -> usize {
-        self.split.part().n_contacts()
+        self.contacts.len()
     }
 
     /// Velocities this process owns.
     pub fn n_velocities(&self) -> usize {
-        self.split.part().n_velocities()
+        self.n_velocities
+    }
+
+    /// Contacts of this process in the shared problem (the others are in its own
+    /// islands).
+    pub fn n_shared_contacts(&self) -> usize {
+        self.split.part().n_contacts()
     }
 
     /// The solver's communicator (its own duplicate of the host's).
@@ -210,6 +493,32 @@ impl DistributedSolver {
     pub fn rank(&self) -> usize {
         self.rank
     }
+}
+
+/// A status's rank among the ways a solve can stop short (0: solved, or nothing ran);
+/// every process takes the largest.
+fn severity(status: Option<Status>) -> f64 {
+    match status {
+        None | Some(Status::Solved) | Some(Status::Unsolved) => 0.0,
+        Some(Status::MaxIterations) => 1.0,
+        Some(Status::TimeLimit) => 2.0,
+        Some(Status::NumericalError) => 3.0,
+        Some(Status::Stalled) => 4.0,
+        Some(Status::Infeasible) => 5.0,
+    }
+}
+
+/// The status of a [`severity`] above 0.
+fn status_of(code: f64) -> Option<Status> {
+    [
+        Status::MaxIterations,
+        Status::TimeLimit,
+        Status::NumericalError,
+        Status::Stalled,
+        Status::Infeasible,
+    ]
+    .into_iter()
+    .find(|&s| severity(Some(s)) == code)
 }
 
 /// Whether the distributed solve does what `settings` ask.

@@ -11,7 +11,7 @@ use crate::admm::{EngineState, Splitting};
 use crate::cone::{get3, project_dual_cone, set3};
 use crate::contact::{de_saxce_shift, inexact_stop, initial_shift_of, prox_input};
 use crate::csc::dot;
-use crate::measure::{complementarity_sq, Floors, GlobalSums, Scales};
+use crate::measure::{Floors, GlobalSums, GlobalTerms, Scales};
 use crate::types::Error;
 use mpi::topology::SimpleCommunicator;
 use std::time::Instant;
@@ -204,6 +204,38 @@ impl DistributedSplitting {
     }
 
     /// `out = M x` over the owned bodies.
+    /// This process's share of the measure's sums at the impulses `-rho zeta` and the
+    /// current velocities, not yet added across processes (a collective call: `H r` is
+    /// handed back to the owners), and whether those vectors are all finite.
+    pub fn own_sums(&mut self, zeta: &[f64], rho: f64) -> (GlobalSums, bool) {
+        for (r, z) in self.r.iter_mut().zip(zeta) {
+            *r = -rho * z;
+        }
+        let (mut hr, mut mv) = (std::mem::take(&mut self.hr), std::mem::take(&mut self.mv));
+        self.system.h_mul(&self.r, &mut hr);
+        self.mass_mul(&self.sol, &mut mv);
+        // u = H^T v + w, in the work vector over the contact rows.
+        let mut u = std::mem::take(&mut self.work_m);
+        self.system.h_t_mul(&self.sol, &mut u);
+        for (u, w) in u.iter_mut().zip(&self.part.w) {
+            *u += w;
+        }
+        let finite = [&self.r, &self.sol, &u]
+            .iter()
+            .all(|x| x.iter().all(|v| v.is_finite()));
+        let sums = GlobalTerms {
+            f: &self.part.f,
+            mv: &mv,
+            hr: &hr,
+            u: &u,
+            r: &self.r,
+            mu: &self.part.mu,
+        }
+        .sums();
+        (self.hr, self.mv, self.work_m) = (hr, mv, u);
+        (sums, finite)
+    }
+
     fn mass_mul(&self, x: &[f64], out: &mut [f64]) {
         for &(first, k, at) in &self.blocks {
             let block = &self.part.mass[at..at + k * k];
@@ -211,6 +243,11 @@ impl DistributedSplitting {
                 out[first + i] = (0..k).map(|j| block[j * k + i] * x[first + j]).sum();
             }
         }
+    }
+
+    /// The largest of every process's `x`.
+    pub fn max_across(&self, x: f64) -> f64 {
+        self.system.halo().max_across(x)
     }
 
     /// The 2-norm of a vector split over the processes.
@@ -289,39 +326,11 @@ impl Splitting for DistributedSplitting {
     }
 
     fn error(&mut self, _ax: &[f64], _y: &[f64], zeta: &[f64], rho: f64) -> f64 {
-        for (r, z) in self.r.iter_mut().zip(zeta) {
-            *r = -rho * z;
-        }
-        let (mut hr, mut mv) = (std::mem::take(&mut self.hr), std::mem::take(&mut self.mv));
-        self.system.h_mul(&self.r, &mut hr);
-        self.mass_mul(&self.sol, &mut mv);
-        // u = H^T v + w, in the work vector over the contact rows.
-        let mut u = std::mem::take(&mut self.work_m);
-        self.system.h_t_mul(&self.sol, &mut u);
-        for (u, w) in u.iter_mut().zip(&self.part.w) {
-            *u += w;
-        }
-        let finite = [&self.r, &self.sol, &u]
-            .iter()
-            .all(|x| x.iter().all(|v| v.is_finite()));
-        let mut equation = 0.0;
-        for ((mv, hr), f) in mv.iter().zip(&hr).zip(&self.part.f) {
-            equation += (-mv + hr + f).powi(2);
-        }
-        let sums = GlobalSums {
-            equation,
-            f: dot(&self.part.f, &self.part.f),
-            mv: dot(&mv, &mv),
-            hr: dot(&hr, &hr),
-            complementarity: complementarity_sq(&self.r, &u, &self.part.mu),
-            u: dot(&u, &u),
-            r: dot(&self.r, &self.r),
-        };
+        let (sums, finite) = self.own_sums(zeta, rho);
         let mut all = [0.0; 8];
         all[..7].copy_from_slice(&sums.to_array());
         all[7] = f64::from(u8::from(!finite));
         self.sum_across(&mut all);
-        (self.hr, self.mv, self.work_m) = (hr, mv, u);
         let error = if all[7] > 0.0 {
             f64::INFINITY
         } else {

@@ -127,8 +127,22 @@ fn check_shape(
     Ok(())
 }
 
+/// The number of contacts, from the columns of `a` (H or W), three per contact, so that a
+/// vector of the wrong length (`mu`, `w`, `q`) is named rather than the matrix. A column
+/// count that is not a multiple of 3 is the matrix's error (`3 * mu_len` expected).
+fn contacts(field: &'static str, a: &CscMatrix, mu_len: usize) -> Result<usize, Error> {
+    if a.ncols() % 3 != 0 {
+        return Err(Error::Dimension {
+            field,
+            expected: mu_len.saturating_mul(3),
+            found: a.ncols(),
+        });
+    }
+    Ok(a.ncols() / 3)
+}
+
 impl GlobalProblem {
-    /// Validates and builds a global problem with `n = M.nrows()` and `nc = mu.len()`.
+    /// Validates and builds a global problem with `n = M.nrows()` and `nc = H.ncols() / 3`.
     ///
     /// Positive definiteness of M is checked when the solver factorizes it.
     pub fn new(
@@ -156,7 +170,7 @@ impl GlobalProblem {
     pub fn validate(&self) -> Result<(), Error> {
         let n = self.m.nrows();
         check_shape("M", &self.m, n, n)?;
-        let nc = self.mu.len();
+        let nc = contacts("H", &self.h, self.mu.len())?;
         check_shape("H", &self.h, n, 3 * nc)?;
         check_len("f", &self.f, n)?;
         check_len("w", &self.w, 3 * nc)?;
@@ -312,7 +326,7 @@ impl LocalProblem {
         Ok(())
     }
 
-    /// Validates and builds a local problem with `nc = mu.len()`.
+    /// Validates and builds a local problem with `nc = W.ncols() / 3`.
     pub fn new(w: CscMatrix, q: Vec<f64>, mu: Vec<f64>) -> Result<Self, Error> {
         let p = Self { w, q, mu };
         p.validate()?;
@@ -322,7 +336,7 @@ impl LocalProblem {
     /// Checks the sizes and values the constructor checks (see
     /// [`GlobalProblem::validate`]).
     pub fn validate(&self) -> Result<(), Error> {
-        let nc = self.mu.len();
+        let nc = contacts("W", &self.w, self.mu.len())?;
         check_shape("W", &self.w, 3 * nc, 3 * nc)?;
         check_len("q", &self.q, 3 * nc)?;
         check_mu(&self.mu, nc)

@@ -108,12 +108,13 @@ fn global_problem_errors() {
         vec![0.5, 0.5],
     )
     .unwrap_err();
+    // Two friction coefficients for H's one contact (issue 41: named mu, not H).
     assert_eq!(
         e,
         Error::Dimension {
-            field: "H",
-            expected: 6,
-            found: 3
+            field: "mu",
+            expected: 1,
+            found: 2
         }
     );
     let h = CscMatrix::identity(4);
@@ -208,7 +209,10 @@ fn global_problem_errors() {
 
 #[test]
 fn local_problem_errors() {
+    // W says two contacts: q and mu, of one, are named (the first, q).
     let e = LocalProblem::new(CscMatrix::identity(6), vec![0.0; 3], vec![0.5]).unwrap_err();
+    assert!(matches!(e, Error::Dimension { field: "q", .. }), "{e}");
+    let e = LocalProblem::new(CscMatrix::identity(4), vec![0.0; 3], vec![0.5]).unwrap_err();
     assert!(matches!(e, Error::Dimension { field: "W", .. }), "{e}");
     let e = LocalProblem::new(identity3(), vec![0.0; 6], vec![0.5]).unwrap_err();
     assert_eq!(
@@ -527,4 +531,41 @@ fn a_new_solver_is_unsolved() {
     assert_eq!(solver.stats().status, cadmm::Status::Unsolved);
     assert_eq!(solver.solve().unwrap(), cadmm::Status::Solved);
     assert_eq!(solver.stats().status, cadmm::Status::Solved);
+}
+
+/// Issue 41: the contact count is H's (or W's) columns over 3; a `mu` of another length is
+/// `mu`'s error, not the matrix's.
+#[test]
+fn a_mu_of_the_wrong_length_is_named() {
+    let e = GlobalProblem::new(
+        identity3(),
+        identity3(),
+        vec![0.0; 3],
+        vec![0.0; 3],
+        vec![0.5, 0.5],
+    )
+    .unwrap_err();
+    assert_eq!(
+        e,
+        Error::Dimension {
+            field: "mu",
+            expected: 1,
+            found: 2
+        }
+    );
+    let e = LocalProblem::new(identity3(), vec![0.0; 3], vec![0.5, 0.5]).unwrap_err();
+    assert_eq!(
+        e,
+        Error::Dimension {
+            field: "mu",
+            expected: 1,
+            found: 2
+        }
+    );
+    let e = LocalProblem::new(identity3(), vec![0.0; 3], vec![]).unwrap_err();
+    assert!(matches!(e, Error::Dimension { field: "mu", .. }), "{e}");
+    // A column count that is not a multiple of 3 is the matrix's error.
+    let h = CscMatrix::from_dense("H", 3, 4, &[0.0; 12]).unwrap();
+    let e = GlobalProblem::new(identity3(), h, vec![0.0; 3], vec![0.0; 3], vec![0.5]).unwrap_err();
+    assert!(matches!(e, Error::Dimension { field: "H", .. }), "{e}");
 }

@@ -63,12 +63,49 @@ fn index(v: i64, what: &str, path: &Path) -> Result<usize, Error> {
     usize::try_from(v).map_err(|_| io(path, format!("negative {what} {v}")))
 }
 
-fn read_matrix(parent: &Group, name: &'static str, path: &Path) -> Result<CscMatrix, Error> {
+/// A size a matrix must have, and where it comes from (for the message).
+#[derive(Clone, Copy)]
+struct Expected {
+    size: usize,
+    from: &'static str,
+}
+
+/// Checks a size field of matrix `name` (`m` or `n`) against what the problem's vectors
+/// say, before it sizes anything: a corrupt field must give an error naming it, not an
+/// allocation of its claimed size.
+fn check_size(
+    path: &Path,
+    name: &str,
+    field: &str,
+    found: usize,
+    e: Expected,
+) -> Result<(), Error> {
+    if found != e.size {
+        return Err(io(
+            path,
+            format!(
+                "matrix {name}: {field} = {found}, expected {} ({})",
+                e.size, e.from
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn read_matrix(
+    parent: &Group,
+    name: &'static str,
+    path: &Path,
+    rows: Expected,
+    cols: Expected,
+) -> Result<CscMatrix, Error> {
     let g = parent
         .group(name)
         .map_err(|e| io(path, format!("matrix {name}: {e}")))?;
     let nrows = index(scalar(&g, "m", path)?, "row count", path)?;
     let ncols = index(scalar(&g, "n", path)?, "column count", path)?;
+    check_size(path, name, "m", nrows, rows)?;
+    check_size(path, name, "n", ncols, cols)?;
     let nz = scalar(&g, "nz", path)?;
     let p = ints(&g, "p", path)?;
     let i = ints(&g, "i", path)?;
@@ -78,12 +115,25 @@ fn read_matrix(parent: &Group, name: &'static str, path: &Path) -> Result<CscMat
     };
     match nz {
         -1 => {
+            if p.len() != ncols + 1 {
+                return Err(io(
+                    path,
+                    format!(
+                        "matrix {name}: n = {ncols} but p holds {} column pointers",
+                        p.len()
+                    ),
+                ));
+            }
             let colptr = to_usize(&p, "column pointer")?;
             let nnz = *colptr.last().unwrap_or(&0);
             if i.len() < nnz || x.len() < nnz {
                 return Err(io(
                     path,
-                    format!("matrix {name}: {nnz} entries announced, fewer stored"),
+                    format!(
+                        "matrix {name}: p announces {nnz} entries, i holds {} and x holds {}",
+                        i.len(),
+                        x.len()
+                    ),
                 ));
             }
             CscMatrix::new(
@@ -101,19 +151,33 @@ fn read_matrix(parent: &Group, name: &'static str, path: &Path) -> Result<CscMat
                 return Err(io(
                     path,
                     format!(
-                        "matrix {name}: {} row pointers for {nrows} rows",
+                        "matrix {name}: m = {nrows} but p holds {} row pointers",
                         rowptr.len()
                     ),
                 ));
             }
-            let mut t = Vec::new();
+            if let Some(r) = rowptr.windows(2).position(|w| w[1] < w[0]) {
+                return Err(io(
+                    path,
+                    format!("matrix {name}: row pointers p decrease at row {r}"),
+                ));
+            }
+            // Every entry needs a column index in i and a value in x.
+            let nnz = rowptr[nrows];
+            if i.len() < nnz || x.len() < nnz {
+                return Err(io(
+                    path,
+                    format!(
+                        "matrix {name}: p announces {nnz} entries, i holds {} and x holds {}",
+                        i.len(),
+                        x.len()
+                    ),
+                ));
+            }
+            let mut t = Vec::with_capacity(nnz);
             for r in 0..nrows {
                 for k in rowptr[r]..rowptr[r + 1] {
-                    let c = i
-                        .get(k)
-                        .copied()
-                        .ok_or_else(|| io(path, format!("matrix {name}: short index array")))?;
-                    t.push((r, index(c, "column index", path)?, x[k]));
+                    t.push((r, index(i[k], "column index", path)?, x[k]));
                 }
             }
             CscMatrix::from_triplets(name, nrows, ncols, &t)
@@ -123,7 +187,12 @@ fn read_matrix(parent: &Group, name: &'static str, path: &Path) -> Result<CscMat
             if i.len() < nz || p.len() < nz || x.len() < nz {
                 return Err(io(
                     path,
-                    format!("matrix {name}: {nz} triplets announced, fewer stored"),
+                    format!(
+                        "matrix {name}: nz = {nz} triplets announced, i holds {}, p {} and x {}",
+                        i.len(),
+                        p.len(),
+                        x.len()
+                    ),
                 ));
             }
             let t: Result<Vec<_>, Error> = (0..nz)
@@ -144,36 +213,60 @@ fn read_matrix(parent: &Group, name: &'static str, path: &Path) -> Result<CscMat
     }
 }
 
+/// Refuses a path that is not a regular file before anything opens it: opening a FIFO
+/// nobody writes to blocks forever, and a device could be read without end.
+fn regular_file(path: &Path) -> Result<(), Error> {
+    let meta = std::fs::metadata(path).map_err(|e| io(path, e))?;
+    if !meta.is_file() {
+        return Err(io(path, "not a regular file"));
+    }
+    Ok(())
+}
+
 /// Reads an FCLib problem (global or local). Read only files you trust: libhdf5 itself can
 /// crash on a corrupt file (found by fuzzing) before the checks here run.
+///
+/// The vectors are read first: their lengths give the sizes the matrices' `m` and `n` must
+/// have (`n` from `f`, the contacts from `mu`, the joints from `b`), so that a corrupt size
+/// field is an i/o error naming it before it sizes anything.
 pub fn read(path: impl AsRef<Path>) -> Result<Problem, Error> {
     let path = path.as_ref();
+    regular_file(path)?;
     let file = File::open(path).map_err(|e| io(path, e))?;
+    let contacts = |mu: &[f64]| Expected {
+        size: 3 * mu.len(),
+        from: "3 x the length of vectors/mu",
+    };
     if let Ok(g) = file.group("fclib_global") {
         let v = g.group("vectors").map_err(|e| io(path, e))?;
-        let m = read_matrix(&g, "M", path)?;
-        let h = read_matrix(&g, "H", path)?;
-        let p = GlobalProblem::new(
-            m,
-            h,
+        let (f, w, mu) = (
             floats(&v, "f", path)?,
             floats(&v, "w", path)?,
             floats(&v, "mu", path)?,
-        )?;
+        );
+        let n = Expected {
+            size: f.len(),
+            from: "the length of vectors/f",
+        };
+        let m = read_matrix(&g, "M", path, n, n)?;
+        let h = read_matrix(&g, "H", path, n, contacts(&mu))?;
+        let p = GlobalProblem::new(m, h, f, w, mu)?;
         if g.link_exists("G") {
-            let gm = read_matrix(&g, "G", path)?;
-            return Ok(Problem::Global(p.with_joints(gm, floats(&v, "b", path)?)?));
+            let b = floats(&v, "b", path)?;
+            let joints = Expected {
+                size: b.len(),
+                from: "the length of vectors/b",
+            };
+            let gm = read_matrix(&g, "G", path, n, joints)?;
+            return Ok(Problem::Global(p.with_joints(gm, b)?));
         }
         return Ok(Problem::Global(p));
     }
     if let Ok(g) = file.group("fclib_local") {
         let v = g.group("vectors").map_err(|e| io(path, e))?;
-        let w = read_matrix(&g, "W", path)?;
-        return Ok(Problem::Local(LocalProblem::new(
-            w,
-            floats(&v, "q", path)?,
-            floats(&v, "mu", path)?,
-        )?));
+        let (q, mu) = (floats(&v, "q", path)?, floats(&v, "mu", path)?);
+        let w = read_matrix(&g, "W", path, contacts(&mu), contacts(&mu))?;
+        return Ok(Problem::Local(LocalProblem::new(w, q, mu)?));
     }
     Err(io(path, "neither an fclib_global nor an fclib_local group"))
 }
@@ -267,6 +360,7 @@ pub fn write_solution(path: impl AsRef<Path>, s: &Solution) -> Result<(), Error>
 /// same layout); `u`, `v` and `lambda` are empty when absent, `r` is required.
 pub fn read_solution(path: impl AsRef<Path>) -> Result<Solution, Error> {
     let path = path.as_ref();
+    regular_file(path)?;
     let file = File::open(path).map_err(|e| io(path, e))?;
     let g = file.group("solution").map_err(|e| io(path, e))?;
     let vector = |name: &str| -> Result<Vec<f64>, Error> {

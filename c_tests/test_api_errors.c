@@ -37,6 +37,8 @@ static const double W0[3] = {0.0, 0.0, 0.0};
 static const double MU[1] = {0.5};
 static const double Q3[3] = {-1.0, 0.1, 0.0};
 static const double HALF[3] = {0.5, 0.5, 0.5};
+/* W = I / 2 for the local form (a valid one-contact Delassus matrix). */
+static const cadmm_csc W_HALF_DIAG = {3, 3, DIAG_COLPTR, DIAG_ROWIND, HALF};
 
 static cadmm_csc csc(size_t nrows, size_t ncols, const int64_t *colptr, const int64_t *rowind,
                      const double *values)
@@ -340,6 +342,42 @@ static void test_global_inputs(void)
                      &a, &H, F3, W0, MU);
         global_fails("H duplicate entry", "H", "duplicate|column 0", CADMM_ERR_INVALID_CSC, 3, 1,
                      &M, &a, F3, W0, MU);
+    }
+
+    /* issue 41, a hostile caller: sizes that contradict each other are refused before
+     * anything sized by them is allocated or read (1e12 contacts aborted on copying w), and
+     * column pointers past the 3 entries the arrays hold are refused before rowind and
+     * values are read (a heap overflow at colptr[3] = 40, a crash at 1e18). */
+    {
+        static const int64_t past40[4] = {0, 1, 2, 40};
+        static const int64_t past1e18[4] = {0, 1, 2, INT64_C(1000000000000000000)};
+        static const int64_t crowded[4] = {0, 4, 4, 4};
+        const size_t many = (size_t)UINT64_C(1000000000000);
+        const size_t wide = (size_t)1 << 40;
+        cadmm_csc a;
+        global_fails("n_contacts = 1e12, H 3x3", "H 3 3000000000000", "expected",
+                     CADMM_ERR_DIMENSION, 3, many, &M, &H, F3, W0, MU);
+        local_fails("n_contacts = 1e12, W 3x3", "W 3 3000000000000", "expected",
+                    CADMM_ERR_DIMENSION, many, &W_HALF_DIAG, Q3, MU);
+        a = csc(3, wide, DIAG_COLPTR, DIAG_ROWIND, TWO);
+        global_fails("M ncols = 2^40", "M 3 1099511627776", "expected", CADMM_ERR_DIMENSION, 3,
+                     1, &a, &H, F3, W0, MU);
+        a = csc(3, wide, DIAG_COLPTR, DIAG_ROWIND, ONE);
+        global_fails("H ncols = 2^40", "H 3 1099511627776", "expected", CADMM_ERR_DIMENSION, 3,
+                     1, &M, &a, F3, W0, MU);
+        a = csc(3, 3, past40, DIAG_ROWIND, TWO);
+        global_fails("M colptr[3] = 40", "M 40 9", "at most", CADMM_ERR_INVALID_CSC, 3, 1, &a,
+                     &H, F3, W0, MU);
+        global_fails("H colptr[3] = 40", "H 40 9", "at most", CADMM_ERR_INVALID_CSC, 3, 1, &M,
+                     &a, F3, W0, MU);
+        a = csc(3, 3, past1e18, DIAG_ROWIND, TWO);
+        global_fails("M colptr[3] = 1e18", "M 1000000000000000000", "at most",
+                     CADMM_ERR_INVALID_CSC, 3, 1, &a, &H, F3, W0, MU);
+        local_fails("W colptr[3] = 1e18", "W 1000000000000000000", "at most",
+                    CADMM_ERR_INVALID_CSC, 1, &a, Q3, MU);
+        a = csc(3, 3, crowded, DIAG_ROWIND, TWO);
+        global_fails("M column 0 with 4 entries", "M 0 4", "more than nrows",
+                     CADMM_ERR_INVALID_CSC, 3, 1, &a, &H, F3, W0, MU);
     }
 
     /* non-finite values */

@@ -251,8 +251,9 @@ typedef struct cadmm_stats {
  * `colptr` (never NULL) has `ncols + 1` entries, starts at 0 and does not decrease;
  * `rowind` and `values` have `colptr[ncols]` entries each (NULL allowed when that is 0).
  * Row indices lie in `[0, nrows)`, need not be sorted within a column, and must not repeat
- * within a column. Values must be finite. Symmetric matrices (M, W) are given in full, both
- * triangles.
+ * within a column (so a column holds at most `nrows` entries; a `colptr` saying more is
+ * refused before `rowind` and `values` are read). Values must be finite. Symmetric
+ * matrices (M, W) are given in full, both triangles.
  */
 typedef struct cadmm_csc {
     /**
@@ -536,8 +537,10 @@ void cadmm_distributed_solver_free(struct cadmm_distributed_solver *sv);
  * `cadmm_solver_new`), `H` is `n x 3 n_contacts`, `f` has `n` entries, `w` has
  * `3 n_contacts`, `mu` has `n_contacts` (non-negative). Every input is copied. On success
  * `*out` receives a new problem to release with `cadmm_problem_free`; on failure `*out` is
- * left untouched. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION`,
- * `CADMM_ERR_INVALID_CSC`, `CADMM_ERR_INVALID_VALUE`.
+ * left untouched. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION` (a matrix whose
+ * shape disagrees with `n` and `n_contacts`, checked before anything sized by them is read),
+ * `CADMM_ERR_INVALID_CSC`, `CADMM_ERR_INVALID_VALUE`, `CADMM_ERR_OUT_OF_MEMORY` (sizes too
+ * large for the copies).
  */
 cadmm_result cadmm_problem_new_global(size_t n,
                                       size_t n_contacts,
@@ -555,7 +558,7 @@ cadmm_result cadmm_problem_new_global(size_t n,
  * `G` is `n x p`, `b` has `p` entries (`p` = `G->ncols`). A `G` with no column removes the
  * joints. On failure the problem is unchanged. Errors: `CADMM_ERR_NULL_POINTER`,
  * `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_CSC`, `CADMM_ERR_INVALID_VALUE`,
- * `CADMM_ERR_UNSUPPORTED` (a local problem).
+ * `CADMM_ERR_UNSUPPORTED` (a local problem), `CADMM_ERR_OUT_OF_MEMORY`.
  */
 cadmm_result cadmm_problem_set_joints(struct cadmm_problem *p,
                                       const struct cadmm_csc *G,
@@ -568,8 +571,9 @@ cadmm_result cadmm_problem_set_joints(struct cadmm_problem *p,
  * non-symmetric; `q` has `3 n_contacts` entries; `mu` has `n_contacts` (non-negative).
  * Every input is copied. On success `*out` receives a new problem to release with
  * `cadmm_problem_free`; on failure `*out` is left untouched. Errors:
- * `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_CSC`,
- * `CADMM_ERR_INVALID_VALUE`.
+ * `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION` (W's shape checked first, as for
+ * `cadmm_problem_new_global`), `CADMM_ERR_INVALID_CSC`, `CADMM_ERR_INVALID_VALUE`,
+ * `CADMM_ERR_OUT_OF_MEMORY`.
  */
 cadmm_result cadmm_problem_new_local(size_t n_contacts,
                                      const struct cadmm_csc *W,
@@ -581,7 +585,9 @@ cadmm_result cadmm_problem_new_local(size_t n_contacts,
  * Reads an FCLib HDF5 file (`fclib_global`, with its joints if any, or `fclib_local`).
  *
  * On success `*out` receives a new problem; on failure `*out` is left untouched. Errors:
- * `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_IO` (missing or unreadable file), the validation
+ * `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_IO` (missing or unreadable file, a path that is not
+ * a regular file, such as a FIFO, which is never opened; size fields that disagree with the
+ * datasets or with each other, naming the field), the validation
  * errors of `cadmm_problem_new_global`/`_new_local`, and `CADMM_ERR_UNSUPPORTED` when the
  * library was built without FCLib support (Cargo feature `fclib`). Read only files you
  * trust: libhdf5 itself can crash on a corrupt file (found by fuzzing) before cadmm's own

@@ -1437,3 +1437,118 @@ fn zero_contacts_solve_with_every_initial_rule() {
         cadmm_problem_free(global);
     }
 }
+
+/// This thread's `cadmm_last_error`, owned.
+fn thread_error() -> String {
+    unsafe { CStr::from_ptr(cadmm_last_error()) }
+        .to_str()
+        .unwrap()
+        .to_owned()
+}
+
+/// A matrix that claims `nrows x ncols` over the small arrays of `a` (a lie the library must
+/// catch before it reads or allocates by the claim).
+fn claiming(a: &Csc, nrows: usize, ncols: usize) -> cadmm_csc {
+    cadmm_csc {
+        nrows,
+        ncols,
+        ..a.c()
+    }
+}
+
+/// Issue 41: sizes that disagree are refused before anything proportional to them is
+/// allocated or read (the probe's `n_contacts = 1e12` aborted on copying `w`), and sizes
+/// that agree but cannot be allocated give OUT_OF_MEMORY, never an abort.
+#[test]
+fn huge_claimed_sizes_are_refused_without_aborting() {
+    let (m, h) = (Csc::eye(3), Csc::eye(3));
+    let nc = 1_000_000_000_000usize;
+    let global = |n: usize, nc: usize, m: &cadmm_csc, h: &cadmm_csc| {
+        let mut out = sentinel();
+        let rc = unsafe {
+            cadmm_problem_new_global(n, nc, m, h, F.as_ptr(), W0.as_ptr(), MU.as_ptr(), &mut out)
+        };
+        assert_eq!(out, sentinel());
+        (rc, thread_error())
+    };
+    let (rc, e) = global(3, nc, &m.c(), &h.c());
+    assert_eq!(rc, CADMM_ERR_DIMENSION, "{e}");
+    assert!(e.contains("H is 3 x 3"), "{e}");
+    let mut out = sentinel();
+    let rc =
+        unsafe { cadmm_problem_new_local(nc, &Csc::eye(3).c(), F.as_ptr(), MU.as_ptr(), &mut out) };
+    assert_eq!(rc, CADMM_ERR_DIMENSION, "{}", thread_error());
+    assert!(thread_error().contains("W is 3 x 3"), "{}", thread_error());
+    assert_eq!(out, sentinel());
+    // A column count of 2^40 against n = 3, in M and in H.
+    let wide = 1usize << 40;
+    let (rc, e) = global(3, 1, &claiming(&m, 3, wide), &h.c());
+    assert_eq!(rc, CADMM_ERR_DIMENSION, "{e}");
+    assert!(e.contains("M is 3 x 1099511627776"), "{e}");
+    let (rc, e) = global(3, 1, &m.c(), &claiming(&h, 3, wide));
+    assert_eq!(rc, CADMM_ERR_DIMENSION, "{e}");
+    assert!(e.starts_with("H "), "{e}");
+    let (rc, e) = global(3, 1, &m.c(), &claiming(&h, wide, 3));
+    assert_eq!(rc, CADMM_ERR_DIMENSION, "{e}");
+    // G: n rows, any number of columns.
+    let p = global_problem();
+    let g = Csc::new(3, 1, &[0, 1], &[0], &[1.0]);
+    let rc = unsafe { cadmm_problem_set_joints(p, &claiming(&g, wide, 1), [0.0].as_ptr()) };
+    assert_eq!(rc, CADMM_ERR_DIMENSION);
+    assert!(thread_error().starts_with("G "), "{}", thread_error());
+    unsafe { cadmm_problem_free(p) };
+    // Sizes that agree with each other but not with any memory: n = 1e12 with M and H
+    // claiming it, 1e12 contacts with H claiming 3e12 columns. The first array the claim
+    // sizes (M.colptr, H.colptr) cannot be allocated.
+    let n = 1_000_000_000_000usize;
+    let (rc, e) = global(n, 1, &claiming(&m, n, n), &claiming(&h, n, 3));
+    assert_eq!(rc, CADMM_ERR_OUT_OF_MEMORY, "{e}");
+    assert!(e.contains("M.colptr"), "{e}");
+    let (rc, e) = global(3, nc, &m.c(), &claiming(&h, 3, 3 * nc));
+    assert_eq!(rc, CADMM_ERR_OUT_OF_MEMORY, "{e}");
+    assert!(e.contains("H.colptr"), "{e}");
+    let rc = unsafe {
+        cadmm_problem_new_local(
+            nc,
+            &claiming(&m, 3 * nc, 3 * nc),
+            F.as_ptr(),
+            MU.as_ptr(),
+            &mut out,
+        )
+    };
+    assert_eq!(rc, CADMM_ERR_OUT_OF_MEMORY, "{}", thread_error());
+    // Too large to address at all: a dimension error.
+    let huge = usize::MAX / 4;
+    let (rc, e) = global(huge, 1, &claiming(&m, huge, huge), &claiming(&h, huge, 3));
+    assert_eq!(rc, CADMM_ERR_DIMENSION, "{e}");
+}
+
+/// Issue 41: a last column pointer past the entries the arrays hold (3 allocated) was read
+/// as a length for `rowind` and `values` (a heap overflow, or a segfault at 1e18). A column
+/// holds at most `nrows` entries (duplicates are refused), so such pointers are refused
+/// before `rowind` and `values` are read.
+#[test]
+fn column_pointers_past_the_arrays_are_refused_before_reading_them() {
+    let h = Csc::eye(3);
+    for (last, what) in [
+        (40, "colptr[3] = 40"),
+        (1_000_000_000_000_000_000, "colptr[3] = 1e18"),
+    ] {
+        let m = Csc::new(3, 3, &[0, 1, 2, last], &[0, 1, 2], &[1.0; 3]);
+        assert_eq!(
+            try_global(3, 1, &m, &h, &F, &W0, &MU),
+            CADMM_ERR_INVALID_CSC,
+            "{what}"
+        );
+        let e = thread_error();
+        assert!(e.contains("M") && e.contains("at most 9"), "{what}: {e}");
+    }
+    // Within nrows * ncols in all, but one column with more entries than rows.
+    let m = Csc::new(3, 3, &[0, 4, 4, 4], &[0, 1, 2], &[1.0; 3]);
+    assert_eq!(
+        try_global(3, 1, &m, &h, &F, &W0, &MU),
+        CADMM_ERR_INVALID_CSC
+    );
+    let e = thread_error();
+    assert!(e.contains("column 0 holds 4 entries"), "{e}");
+}

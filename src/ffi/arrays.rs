@@ -3,7 +3,9 @@
 //! for NULL and alignment; outputs are written through raw pointers, never `&mut`, so that
 //! aliased output arrays are harmless.
 
-use super::result::{Failure, FfiResult, CADMM_ERR_DIMENSION, CADMM_ERR_INVALID_VALUE};
+use super::result::{
+    Failure, FfiResult, CADMM_ERR_DIMENSION, CADMM_ERR_INVALID_VALUE, CADMM_ERR_OUT_OF_MEMORY,
+};
 use std::ffi::{c_char, CStr};
 use std::mem::size_of;
 
@@ -55,6 +57,35 @@ pub(crate) unsafe fn input<'a, T>(what: &str, ptr: *const T, len: usize) -> FfiR
     check_len::<T>(what, len)?;
     // SAFETY: non-NULL, aligned, length addressable; validity is the caller's contract.
     Ok(unsafe { std::slice::from_raw_parts(ptr, len) })
+}
+
+/// An empty vector with room for `len` elements, or OUT_OF_MEMORY naming `what`: a length
+/// the caller controls must never abort the host on a failed allocation.
+pub(crate) fn try_vec<T>(what: &str, len: usize) -> FfiResult<Vec<T>> {
+    check_len::<T>(what, len)?;
+    let mut v = Vec::new();
+    v.try_reserve_exact(len).map_err(|_| {
+        Failure::new(
+            CADMM_ERR_OUT_OF_MEMORY,
+            format!("{what}: cannot allocate {len} elements"),
+        )
+    })?;
+    Ok(v)
+}
+
+/// A copy of an input array of `len` elements ([`input`]), allocated fallibly
+/// ([`try_vec`]) before the caller's array is read.
+///
+/// # Safety
+/// As for [`input`].
+pub(crate) unsafe fn copy<T: Copy>(what: &str, ptr: *const T, len: usize) -> FfiResult<Vec<T>> {
+    if len > 0 {
+        check_ptr(what, ptr)?;
+    }
+    let mut v = try_vec(what, len)?;
+    // SAFETY: the caller's contract, as for `input`.
+    v.extend_from_slice(unsafe { input(what, ptr, len)? });
+    Ok(v)
 }
 
 /// An output array of `data.len()` elements: checked (a zero-length array may be NULL).

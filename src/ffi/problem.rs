@@ -1,9 +1,9 @@
 //! `cadmm_problem`: a validated global or local frictional contact problem.
 
-use super::arrays::{check_ptr, contact_len, input, path};
-use super::csc::{cadmm_csc, read_csc};
+use super::arrays::{check_ptr, contact_len, copy, input, path};
+use super::csc::{cadmm_csc, read_csc, Shape};
 use super::panic::{guard, guard_value};
-use super::result::{cadmm_result, Failure, FfiResult, CADMM_ERR_DIMENSION, CADMM_ERR_UNSUPPORTED};
+use super::result::{cadmm_result, Failure, FfiResult, CADMM_ERR_UNSUPPORTED};
 use crate::measure::problem_error;
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
 use std::ffi::c_char;
@@ -50,8 +50,10 @@ unsafe fn put(out: *mut *mut cadmm_problem, inner: Problem) {
 /// `cadmm_solver_new`), `H` is `n x 3 n_contacts`, `f` has `n` entries, `w` has
 /// `3 n_contacts`, `mu` has `n_contacts` (non-negative). Every input is copied. On success
 /// `*out` receives a new problem to release with `cadmm_problem_free`; on failure `*out` is
-/// left untouched. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION`,
-/// `CADMM_ERR_INVALID_CSC`, `CADMM_ERR_INVALID_VALUE`.
+/// left untouched. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION` (a matrix whose
+/// shape disagrees with `n` and `n_contacts`, checked before anything sized by them is read),
+/// `CADMM_ERR_INVALID_CSC`, `CADMM_ERR_INVALID_VALUE`, `CADMM_ERR_OUT_OF_MEMORY` (sizes too
+/// large for the copies).
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_problem_new_global(
     n: usize,
@@ -66,18 +68,24 @@ pub unsafe extern "C" fn cadmm_problem_new_global(
     guard(|| {
         check_ptr("out", out)?;
         let l = contact_len(n_contacts)?;
+        // Each matrix's shape is checked against n and n_contacts before anything sized by
+        // them is read or allocated; the vectors are read only once the matrices agree.
+        let shape_m = Shape {
+            nrows: n,
+            ncols: Some(n),
+            rule: "n x n",
+        };
+        let shape_h = Shape {
+            nrows: n,
+            ncols: Some(l),
+            rule: "n x 3 n_contacts",
+        };
         // SAFETY (all reads): lengths from the dimensions, as documented above.
-        let m = unsafe { read_csc("M", M)? };
-        if m.nrows() != n {
-            return Err(Failure::new(
-                CADMM_ERR_DIMENSION,
-                format!("M has {} rows, expected n = {n}", m.nrows()),
-            ));
-        }
-        let h = unsafe { read_csc("H", H)? };
-        let f = unsafe { input("f", f, n)? }.to_vec();
-        let w = unsafe { input("w", w, l)? }.to_vec();
-        let mu = unsafe { input("mu", mu, n_contacts)? }.to_vec();
+        let m = unsafe { read_csc("M", M, shape_m)? };
+        let h = unsafe { read_csc("H", H, shape_h)? };
+        let f = unsafe { copy("f", f, n)? };
+        let w = unsafe { copy("w", w, l)? };
+        let mu = unsafe { copy("mu", mu, n_contacts)? };
         let p = GlobalProblem::new(m, h, f, w, mu)?;
         unsafe { put(out, Problem::Global(p)) };
         Ok(())
@@ -90,7 +98,7 @@ pub unsafe extern "C" fn cadmm_problem_new_global(
 /// `G` is `n x p`, `b` has `p` entries (`p` = `G->ncols`). A `G` with no column removes the
 /// joints. On failure the problem is unchanged. Errors: `CADMM_ERR_NULL_POINTER`,
 /// `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_CSC`, `CADMM_ERR_INVALID_VALUE`,
-/// `CADMM_ERR_UNSUPPORTED` (a local problem).
+/// `CADMM_ERR_UNSUPPORTED` (a local problem), `CADMM_ERR_OUT_OF_MEMORY`.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_problem_set_joints(
     p: *mut cadmm_problem,
@@ -108,8 +116,13 @@ pub unsafe extern "C" fn cadmm_problem_set_joints(
             ));
         };
         // SAFETY: lengths from the dimensions, as documented above.
-        let g = unsafe { read_csc("G", G)? };
-        let b = unsafe { input("b", b, g.ncols())? }.to_vec();
+        let shape = Shape {
+            nrows: global.n(),
+            ncols: None,
+            rule: "n x p",
+        };
+        let g = unsafe { read_csc("G", G, shape)? };
+        let b = unsafe { copy("b", b, g.ncols())? };
         *global = global.clone().with_joints(g, b)?;
         Ok(())
     })
@@ -121,8 +134,9 @@ pub unsafe extern "C" fn cadmm_problem_set_joints(
 /// non-symmetric; `q` has `3 n_contacts` entries; `mu` has `n_contacts` (non-negative).
 /// Every input is copied. On success `*out` receives a new problem to release with
 /// `cadmm_problem_free`; on failure `*out` is left untouched. Errors:
-/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION`, `CADMM_ERR_INVALID_CSC`,
-/// `CADMM_ERR_INVALID_VALUE`.
+/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION` (W's shape checked first, as for
+/// `cadmm_problem_new_global`), `CADMM_ERR_INVALID_CSC`, `CADMM_ERR_INVALID_VALUE`,
+/// `CADMM_ERR_OUT_OF_MEMORY`.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_problem_new_local(
     n_contacts: usize,
@@ -134,10 +148,16 @@ pub unsafe extern "C" fn cadmm_problem_new_local(
     guard(|| {
         check_ptr("out", out)?;
         let l = contact_len(n_contacts)?;
+        // W's shape is checked first, as for the global form.
+        let shape = Shape {
+            nrows: l,
+            ncols: Some(l),
+            rule: "3 n_contacts x 3 n_contacts",
+        };
         // SAFETY (all reads): lengths from the dimensions, as documented above.
-        let w = unsafe { read_csc("W", W)? };
-        let q = unsafe { input("q", q, l)? }.to_vec();
-        let mu = unsafe { input("mu", mu, n_contacts)? }.to_vec();
+        let w = unsafe { read_csc("W", W, shape)? };
+        let q = unsafe { copy("q", q, l)? };
+        let mu = unsafe { copy("mu", mu, n_contacts)? };
         let p = LocalProblem::new(w, q, mu)?;
         unsafe { put(out, Problem::Local(p)) };
         Ok(())
@@ -147,7 +167,9 @@ pub unsafe extern "C" fn cadmm_problem_new_local(
 /// Reads an FCLib HDF5 file (`fclib_global`, with its joints if any, or `fclib_local`).
 ///
 /// On success `*out` receives a new problem; on failure `*out` is left untouched. Errors:
-/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_IO` (missing or unreadable file), the validation
+/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_IO` (missing or unreadable file, a path that is not
+/// a regular file, such as a FIFO, which is never opened; size fields that disagree with the
+/// datasets or with each other, naming the field), the validation
 /// errors of `cadmm_problem_new_global`/`_new_local`, and `CADMM_ERR_UNSUPPORTED` when the
 /// library was built without FCLib support (Cargo feature `fclib`). Read only files you
 /// trust: libhdf5 itself can crash on a corrupt file (found by fuzzing) before cadmm's own

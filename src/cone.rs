@@ -1,10 +1,27 @@
 //! The Coulomb friction cone `K_mu = { ||x_T|| <= mu x_N }`, its dual `K*_mu = K_{1/mu}`,
 //! their projections and the De Saxce correction. Contact vectors are `[x_N, x_T1, x_T2]`.
 
+/// Squares below this may have lost a term to underflow (2^-969: what vanishes is below
+/// 2^-105 of the sum).
+const SQUARES_LOW: f64 = 2.0041683600089728e-292;
+
+/// `sqrt(a^2 + b^2)`: the plain root while the sum of squares is in range (bitwise as
+/// always), `hypot` where a square would overflow or vanish, so that contacts at any
+/// scale a double holds are projected alike.
+#[inline]
+pub fn tangential_norm(a: f64, b: f64) -> f64 {
+    let s = a * a + b * b;
+    if (SQUARES_LOW..=f64::MAX).contains(&s) || (a == 0.0 && b == 0.0) {
+        s.sqrt()
+    } else {
+        a.hypot(b)
+    }
+}
+
 /// Projection of `z` onto `K_mu`, exact at `mu = 0` (normal ray) and `||z_T|| = 0`.
 #[inline]
 pub fn project_cone(z: [f64; 3], mu: f64) -> [f64; 3] {
-    let t = (z[1] * z[1] + z[2] * z[2]).sqrt();
+    let t = tangential_norm(z[1], z[2]);
     // z_N >= 0 matters at mu = 0, where t = 0 <= 0 * z_N holds for a negative z_N too.
     if t <= mu * z[0] && z[0] >= 0.0 {
         return z; // inside K
@@ -25,7 +42,7 @@ pub fn project_cone(z: [f64; 3], mu: f64) -> [f64; 3] {
 /// the half-space `x_N >= 0`.
 #[inline]
 pub fn project_dual_cone(z: [f64; 3], mu: f64) -> [f64; 3] {
-    let t = (z[1] * z[1] + z[2] * z[2]).sqrt();
+    let t = tangential_norm(z[1], z[2]);
     if mu * t <= z[0] {
         return z; // inside K*
     }
@@ -41,7 +58,7 @@ pub fn project_dual_cone(z: [f64; 3], mu: f64) -> [f64; 3] {
 /// The De Saxce term of one contact, `mu ||u_T||`: the only place it is computed.
 #[inline]
 pub fn de_saxce_term(u: [f64; 3], mu: f64) -> f64 {
-    mu * (u[1] * u[1] + u[2] * u[2]).sqrt()
+    mu * tangential_norm(u[1], u[2])
 }
 
 /// De Saxce correction of one contact: `u + (mu ||u_T||, 0, 0)`.

@@ -87,7 +87,8 @@ Eigen::Vector3d project_cone(const Eigen::Vector3d &z, double mu)
     return p;
 }
 
-double relative(double num, double den) { return den > 1.5e-8 ? num / den : num; }
+// No floor (docs/algorithms.md §3): a zero denominator leaves the residual as it is.
+double relative(double num, double den) { return den > 0.0 ? num / den : num; }
 
 double natural_map(const Vec &r, const Vec &u, const Vec &mu)
 {

@@ -99,11 +99,16 @@ static inline const char *tu_join(char *buf, size_t len, const char *dir, const 
 
 /* ---- small vector helpers -------------------------------------------------------------- */
 
+/* The 2-norm of the entries divided by the largest magnitude, so that no square overflows
+ * or vanishes whatever the data's scale (docs/algorithms.md §3). */
 static inline double tu_norm(const double *x, size_t n)
 {
-    double s = 0.0;
-    for (size_t i = 0; i < n; ++i) s += x[i] * x[i];
-    return sqrt(s);
+    double big = 0.0, s = 0.0;
+    for (size_t i = 0; i < n; ++i)
+        if (!(fabs(x[i]) <= big)) big = fabs(x[i]); /* NaN propagates */
+    if (big == 0.0 || !isfinite(big)) return big;
+    for (size_t i = 0; i < n; ++i) s += (x[i] / big) * (x[i] / big);
+    return big * sqrt(s);
 }
 
 static inline double tu_diff_norm(const double *x, const double *y, size_t n)
@@ -246,30 +251,30 @@ static inline void tu_project_cone(const double z[3], double mu, double out[3])
 static inline double tu_natural_map(const double *r, const double *u, const double *mu,
                                     size_t nc)
 {
-    double s = 0.0;
+    double *res = (double *)tu_calloc(3 * nc, sizeof(double)), e;
     for (size_t c = 0; c < nc; ++c) {
         const double *ri = r + 3 * c, *ui = u + 3 * c;
-        double ut = sqrt(ui[1] * ui[1] + ui[2] * ui[2]);
+        double ut = hypot(ui[1], ui[2]);
         double z[3], p[3];
         z[0] = ri[0] - (ui[0] + mu[c] * ut);
         z[1] = ri[1] - ui[1];
         z[2] = ri[2] - ui[2];
         tu_project_cone(z, mu[c], p);
-        for (int k = 0; k < 3; ++k) s += (ri[k] - p[k]) * (ri[k] - p[k]);
+        for (int k = 0; k < 3; ++k) res[3 * c + k] = ri[k] - p[k];
     }
-    return sqrt(s);
+    e = tu_norm(res, 3 * nc);
+    free(res);
+    return e;
 }
 
-/* Denominators below this are skipped (docs/algorithms.md §3). */
-#define TU_TINY 1.5e-8
-
-/* num / den, or the bare num when den <= TU_TINY. A norm that overflowed (entries beyond
- * ~1e154 square to infinity) makes the term +inf: the measure cannot be evaluated in double
- * precision, which counts like a non-finite candidate (docs/algorithms.md §3.1). */
+/* num / den, or the bare num when den is zero (then every vector in it is zero: there is no
+ * floor, docs/algorithms.md §3). A norm beyond double's range makes the term +inf: the
+ * measure cannot be evaluated in double precision, which counts like a non-finite
+ * candidate (docs/algorithms.md §3.1). */
 static inline double tu_relative(double num, double den)
 {
     if (!isfinite(num) || !isfinite(den)) return INFINITY;
-    return den > TU_TINY ? num / den : num;
+    return den > 0.0 ? num / den : num;
 }
 
 /* Local error: ||r - P_K(r - (u + Phi(u)))|| / ||q||, u = W r + q. */
@@ -293,7 +298,7 @@ static inline double tu_local_error(const tu_csc *W, const double *q, const doub
 /* Global error with joints (docs/algorithms.md §3.1):
  *     ||-M v + H r + G lambda + f|| / max(||f||, ||M v||, ||H r + G lambda||)
  *   + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||),          u = H^T v + w
- *   + ||G^T v + b|| / max(||G^T v||, ||b||)                       (joints only)
+ *   + ||G^T v + b|| / max(||G^T v||, ||b||, || |G|^T |diag(M)^-1 f| ||)  (joints only)
  * G (n x p), b (p) and lambda (p) describe the joints; G == NULL or G->ncols == 0 means none
  * (b and lambda are then not read). A non-finite r, v or lambda gives +inf. */
 static inline double tu_global_error_joints(const tu_csc *M, const tu_csc *H, const tu_csc *G,
@@ -322,11 +327,24 @@ static inline double tu_global_error_joints(const tu_csc *M, const tu_csc *H, co
     tu_csc_mul_t(H, v, 1, u);
     e2 = tu_relative(tu_natural_map(r, u, mu, nc), tu_max(tu_norm(u, m), tu_norm(r, m)));
     if (p > 0) {
-        double gnorm, s = 0.0;
+        double *res = (double *)tu_calloc(p, sizeof(double));
+        double *free_v = (double *)tu_calloc(p, sizeof(double));
         tu_csc_mul_t(G, v, 0, gv); /* G^T v */
-        gnorm = tu_norm(gv, p);
-        for (size_t k = 0; k < p; ++k) s += (gv[k] + b[k]) * (gv[k] + b[k]);
-        e3 = tu_relative(sqrt(s), tu_max(gnorm, tu_norm(b, p)));
+        for (size_t k = 0; k < p; ++k) {
+            res[k] = gv[k] + b[k];
+            /* the velocity row k sees under free motion: sum_i |G_ik f_i / M_ii| */
+            for (int64_t e = G->colptr[k]; e < G->colptr[k + 1]; ++e) {
+                size_t i = (size_t)G->rowind[e];
+                double d = 0.0;
+                for (int64_t t = M->colptr[i]; t < M->colptr[i + 1]; ++t)
+                    if ((size_t)M->rowind[t] == i) d = M->values[t];
+                if (d > 0.0) free_v[k] += fabs(G->values[e] * f[i] / d);
+            }
+        }
+        e3 = tu_relative(tu_norm(res, p),
+                         tu_max(tu_norm(gv, p), tu_max(tu_norm(b, p), tu_norm(free_v, p))));
+        free(res);
+        free(free_v);
     }
     e1 = e1 + e2 + e3;
 done:
@@ -471,7 +489,7 @@ static inline double tu_problem_error_roundoff(const tu_problem *p, const double
     if (!p->is_global) {
         double nq = tu_norm(p->q, m);
         double du = tu_residual_roundoff(&p->W, r, 0, NULL, NULL, NULL, NULL, p->q, m);
-        e = 4.0 * (1.0 + mu_max) * du / (nq > TU_TINY ? nq : 1.0);
+        e = 4.0 * (1.0 + mu_max) * du / (nq > 0.0 ? nq : 1.0);
         return isfinite(e) ? e : INFINITY;
     }
     {
@@ -490,13 +508,13 @@ static inline double tu_problem_error_roundoff(const tu_problem *p, const double
         if (m > 0) memcpy(u, p->w, m * sizeof(double));
         tu_csc_mul_t(&p->H, v, 1, u);
         den2 = tu_max(tu_norm(u, m), tu_norm(r, m));
-        e = deq / (den1 > TU_TINY ? den1 : 1.0) +
-            (1.0 + mu_max) * du / (den2 > TU_TINY ? den2 : 1.0);
+        e = deq / (den1 > 0.0 ? den1 : 1.0) +
+            (1.0 + mu_max) * du / (den2 > 0.0 ? den2 : 1.0);
         if (np > 0) {
             double dj = tu_residual_roundoff(&p->G, v, 1, NULL, NULL, NULL, NULL, p->b, np), den3;
             tu_csc_mul_t(&p->G, v, 0, gv);
             den3 = tu_max(tu_norm(gv, np), tu_norm(p->b, np));
-            e += dj / (den3 > TU_TINY ? den3 : 1.0);
+            e += dj / (den3 > 0.0 ? den3 : 1.0);
         }
         free(mv);
         free(hr);

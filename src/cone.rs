@@ -3,7 +3,7 @@
 
 /// Squares below this may have lost a term to underflow (2^-969: what vanishes is below
 /// 2^-105 of the sum).
-const SQUARES_LOW: f64 = 2.0041683600089728e-292;
+const SQUARES_LOW: f64 = 2.004168360008973e-292;
 
 /// `sqrt(a^2 + b^2)`: the plain root while the sum of squares is in range (bitwise as
 /// always), `hypot` where a square would overflow or vanish, so that contacts at any

@@ -199,6 +199,15 @@ impl CscMatrix {
         Ok(())
     }
 
+    /// Entry `(i, i)` (zero when the pattern has none).
+    pub fn diagonal_entry(&self, i: usize) -> f64 {
+        let r = self.colptr[i]..self.colptr[i + 1];
+        match self.rowind[r.clone()].binary_search(&i) {
+            Ok(k) => self.values[r.start + k],
+            Err(_) => 0.0,
+        }
+    }
+
     /// The checks of [`CscMatrix::set_values`] alone.
     pub fn check_values(&self, field: &'static str, values: &[f64]) -> Result<(), Error> {
         if values.len() != self.values.len() {

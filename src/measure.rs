@@ -4,47 +4,169 @@
 //!
 //! global: `||-M v + H r + G lambda + f|| / max(||f||, ||M v||, ||H r + G lambda||)
 //!          + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||)
-//!          + ||G^T v + b|| / max(||G^T v||, ||b||)`, `u = H^T v + w` (joint terms only with
-//!          joints);
+//!          + ||G^T v + b|| / max(||G^T v||, ||b||, || |G|^T |diag(M)^-1 f| ||)`,
+//!          `u = H^T v + w` (joint terms only with joints);
 //! local:  `||r - P_K(r - (u + Phi(u)))|| / ||q||`, `u = W r + q`.
 //!
-//! Each denominator is skipped when it is below [`TINY`]. A non-finite input gives `inf`.
+//! A denominator divides whatever its size: the measure does not change when the data
+//! are scaled (docs/algorithms.md §3.4). Only an exactly zero denominator is skipped, and
+//! its term is then the residual as it is (zero vectors make a zero residual). Norms are
+//! sums of squares kept in range by a power-of-two scale ([`SumSq`]), so that data of any
+//! magnitude f64 holds are measured, not overflowed into a false zero. A non-finite input,
+//! or a norm past f64's range, gives `inf`.
 //! Joint multipliers that are not supplied (an empty `lambda`) are recomputed as the
 //! least-squares solution of `G lambda = M v - H r - f`: the best multipliers for the given
 //! `(r, v)`, so the measure then says whether `(r, v)` can be completed into a solution.
 
 use crate::cone::{de_saxce, get3, project_cone};
-use crate::csc::{dot, norm2};
+use crate::csc::dot;
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
 use crate::types::Solution;
 
-/// Denominators below this are skipped (the residual is taken as it is).
-pub const TINY: f64 = 1.5e-8;
-
+/// `num / den`; `num` itself when `den` is zero (then the vectors of both are zero, and
+/// so is `num` but for round-off); infinite when either is not finite, so that a norm
+/// out of range never reads as a small error.
 fn relative(num: f64, den: f64) -> f64 {
-    if den > TINY {
+    if !num.is_finite() || !den.is_finite() {
+        f64::INFINITY
+    } else if den > 0.0 {
         num / den
     } else {
         num
     }
 }
 
+/// A sum of squares held as `scale^2 * ssq`. `scale` is a power of two, so rescaling is
+/// exact; it is 1 (the plain sum, bitwise) unless the plain sum leaves the range where
+/// squares neither overflow nor vanish, and then the largest magnitude's power of two.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct SumSq {
+    scale: f64,
+    ssq: f64,
+}
+
+impl Default for SumSq {
+    fn default() -> Self {
+        Self {
+            scale: 1.0,
+            ssq: 0.0,
+        }
+    }
+}
+
+/// Below this a plain sum of squares may have lost terms to underflow (2^-900: a square
+/// that flushes to zero is then below 2^-174 of the sum).
+const SUM_SQ_LOW: f64 = 1.1830521861667747e-271;
+
+impl SumSq {
+    /// The sum of squares of `values()`, which is called a second time only when the plain
+    /// sum is out of range.
+    pub fn of<I: Iterator<Item = f64>>(values: impl Fn() -> I) -> Self {
+        if let Some(sum) = Self::from_plain(values().map(|x| x * x).sum()) {
+            return sum;
+        }
+        let largest = values().fold(0.0_f64, |m, x| m.max(x.abs()));
+        if largest.is_nan() || !values().all(f64::is_finite) {
+            return Self {
+                scale: 1.0,
+                ssq: f64::INFINITY,
+            };
+        }
+        if largest == 0.0 {
+            return Self::default();
+        }
+        let scale = power_of_two_above(largest);
+        let ssq = values().map(|x| (x / scale) * (x / scale)).sum();
+        Self { scale, ssq }
+    }
+
+    /// The sum of squares of `x`.
+    pub fn of_slice(x: &[f64]) -> Self {
+        Self::from_plain(dot(x, x)).unwrap_or_else(|| Self::of(|| x.iter().copied()))
+    }
+
+    /// A plain sum of squares when it is in range (no square overflowed or vanished).
+    fn from_plain(plain: f64) -> Option<Self> {
+        (plain.is_finite() && plain >= SUM_SQ_LOW).then_some(Self {
+            scale: 1.0,
+            ssq: plain,
+        })
+    }
+
+    /// The norm, `scale * sqrt(ssq)` (infinite past f64's range).
+    pub fn norm(self) -> f64 {
+        self.scale * self.ssq.sqrt()
+    }
+
+    #[cfg(feature = "mpi")]
+    /// The power-of-two scale.
+    pub fn scale(self) -> f64 {
+        self.scale
+    }
+
+    #[cfg(feature = "mpi")]
+    /// `ssq` expressed at a scale at least this one's (exact but for terms that vanish
+    /// beside the larger scale).
+    pub fn ssq_at(self, scale: f64) -> f64 {
+        let ratio = self.scale / scale;
+        self.ssq * ratio * ratio
+    }
+
+    #[cfg(feature = "mpi")]
+    /// A sum at `scale` of the sums of squares `ssq` (as [`SumSq::ssq_at`] gives them).
+    pub fn at(scale: f64, ssq: f64) -> Self {
+        Self { scale, ssq }
+    }
+
+    #[cfg(feature = "mpi")]
+    /// The sum of both.
+    pub fn add(self, other: Self) -> Self {
+        let scale = self.scale.max(other.scale);
+        Self {
+            scale,
+            ssq: self.ssq_at(scale) + other.ssq_at(scale),
+        }
+    }
+}
+
+/// The smallest power of two at or above `x` (positive, finite), within f64's normal range.
+fn power_of_two_above(x: f64) -> f64 {
+    let e = x.log2().ceil().clamp(-1022.0, 1023.0) as i32;
+    let mut p = f64::from_bits(((e + 1023) as u64) << 52);
+    if p < x && e < 1023 {
+        p *= 2.0;
+    }
+    p
+}
+
 /// Norm of the natural-map residual `r - P_K(r - (u + Phi(u)))` over all contacts.
 pub fn complementarity_residual(r: &[f64], u: &[f64], mu: &[f64]) -> f64 {
-    complementarity_sq(r, u, mu).sqrt()
+    complementarity_sq(r, u, mu).norm()
+}
+
+/// The natural-map residual of contact `i`.
+fn natural_map(r: &[f64], u: &[f64], i: usize, mu: f64) -> [f64; 3] {
+    let ri = get3(r, i);
+    let ut = de_saxce(get3(u, i), mu);
+    let p = project_cone([ri[0] - ut[0], ri[1] - ut[1], ri[2] - ut[2]], mu);
+    [ri[0] - p[0], ri[1] - p[1], ri[2] - p[2]]
 }
 
 /// The square of [`complementarity_residual`], a sum over contacts (which processes
 /// sharing a problem add up).
-pub(crate) fn complementarity_sq(r: &[f64], u: &[f64], mu: &[f64]) -> f64 {
-    let mut sum = 0.0;
+pub(crate) fn complementarity_sq(r: &[f64], u: &[f64], mu: &[f64]) -> SumSq {
+    let mut plain = 0.0;
     for (i, &m) in mu.iter().enumerate() {
-        let ri = get3(r, i);
-        let ut = de_saxce(get3(u, i), m);
-        let p = project_cone([ri[0] - ut[0], ri[1] - ut[1], ri[2] - ut[2]], m);
-        sum += (ri[0] - p[0]).powi(2) + (ri[1] - p[1]).powi(2) + (ri[2] - p[2]).powi(2);
+        let [a, b, c] = natural_map(r, u, i, m);
+        plain += a * a + b * b + c * c;
     }
-    sum
+    SumSq::from_plain(plain).unwrap_or_else(|| {
+        SumSq::of(|| {
+            mu.iter()
+                .enumerate()
+                .flat_map(|(i, &m)| natural_map(r, u, i, m))
+        })
+    })
 }
 
 fn all_finite(x: &[f64]) -> bool {
@@ -150,15 +272,14 @@ pub fn global_error_with(
             j.g.mul_vec(1.0, &ls, 1.0, &mut work.hr);
         }
         j.g.mul_t_vec(1.0, v, 0.0, &mut work.gv);
-        let scale = norm2(&work.gv).max(norm2(&j.b));
-        let res: f64 = work
-            .gv
-            .iter()
-            .zip(&j.b)
-            .map(|(a, b)| (a + b) * (a + b))
-            .sum();
+        let scale = SumSq::of_slice(&work.gv)
+            .norm()
+            .max(SumSq::of_slice(&j.b).norm())
+            .max(free_joint_velocity(p, &j.g));
+        let gv = &work.gv;
+        let res = SumSq::of(|| gv.iter().zip(&j.b).map(|(a, b)| a + b)).norm();
         work.scales.joint = scale;
-        joint_error = relative(res.sqrt(), scale.max(work.floors.joint));
+        joint_error = relative(res, scale.max(work.floors.joint));
     }
     work.u.copy_from_slice(&p.w);
     p.h.mul_t_vec(1.0, v, 1.0, &mut work.u);
@@ -171,6 +292,20 @@ pub fn global_error_with(
         mu: &p.mu,
     };
     finite_or_infinite(terms.error(work.floors, &mut work.scales) + joint_error)
+}
+
+/// The velocities the joint rows see under free motion, `|| |G|^T |diag(M)^-1 f| ||`: the
+/// joint term's scale from the data, for an answer at rest (a chain hanging still has
+/// `G^T v = 0` and `b = 0`, and only this says how small its residual must be).
+fn free_joint_velocity(p: &GlobalProblem, g: &crate::csc::CscMatrix) -> f64 {
+    // A diagonal that is not positive (M is then not positive definite either, which the
+    // solver refuses) gives no free velocity.
+    let free = |i: usize| match p.m.diagonal_entry(i) {
+        d if d > 0.0 => p.f[i] / d,
+        _ => 0.0,
+    };
+    let row = |k: usize| g.col(k).map(|(i, gik)| (gik * free(i)).abs()).sum::<f64>();
+    SumSq::of(|| (0..g.ncols()).map(row)).norm()
 }
 
 /// The products the equation and contact terms of the global measure are made of, at
@@ -194,44 +329,40 @@ impl GlobalTerms<'_> {
 
     /// The squared norms the measure is made of.
     pub fn sums(&self) -> GlobalSums {
-        let mut eq = 0.0;
-        for ((mv, hr), f) in self.mv.iter().zip(self.hr).zip(self.f) {
-            eq += (-mv + hr + f).powi(2);
-        }
+        let (mv, hr, f) = (self.mv, self.hr, self.f);
         GlobalSums {
-            equation: eq,
-            f: dot(self.f, self.f),
-            mv: dot(self.mv, self.mv),
-            hr: dot(self.hr, self.hr),
+            equation: SumSq::of(|| mv.iter().zip(hr).zip(f).map(|((mv, hr), f)| -mv + hr + f)),
+            f: SumSq::of_slice(self.f),
+            mv: SumSq::of_slice(self.mv),
+            hr: SumSq::of_slice(self.hr),
             complementarity: complementarity_sq(self.r, self.u, self.mu),
-            u: dot(self.u, self.u),
-            r: dot(self.r, self.r),
+            u: SumSq::of_slice(self.u),
+            r: SumSq::of_slice(self.r),
         }
     }
 }
 
 /// The squared norms the equation and contact terms of the global measure are made of:
-/// sums over velocities and contacts, which processes sharing a problem add up before
-/// [`GlobalSums::error`] makes the measure of them.
+/// sums over velocities and contacts, which islands and processes sharing a problem add up
+/// before [`GlobalSums::error`] makes the measure of them.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct GlobalSums {
     /// `||-M v + H r + f||^2`.
-    pub equation: f64,
+    pub equation: SumSq,
     /// `||f||^2`, `||M v||^2`, `||H r||^2`.
-    pub f: f64,
-    pub mv: f64,
-    pub hr: f64,
+    pub f: SumSq,
+    pub mv: SumSq,
+    pub hr: SumSq,
     /// `||r - P_K(r - (u + Phi(u)))||^2`.
-    pub complementarity: f64,
+    pub complementarity: SumSq,
     /// `||u||^2`, `||r||^2`.
-    pub u: f64,
-    pub r: f64,
+    pub u: SumSq,
+    pub r: SumSq,
 }
 
 impl GlobalSums {
-    /// As an array, for a sum across processes.
     #[cfg(feature = "mpi")]
-    pub fn to_array(self) -> [f64; 7] {
+    fn parts(&self) -> [SumSq; 7] {
         [
             self.equation,
             self.f,
@@ -243,10 +374,9 @@ impl GlobalSums {
         ]
     }
 
-    /// From [`GlobalSums::to_array`]'s order.
     #[cfg(feature = "mpi")]
-    pub fn from_array(a: [f64; 7]) -> Self {
-        let [equation, f, mv, hr, complementarity, u, r] = a;
+    fn from_parts(parts: [SumSq; 7]) -> Self {
+        let [equation, f, mv, hr, complementarity, u, r] = parts;
         Self {
             equation,
             f,
@@ -258,16 +388,39 @@ impl GlobalSums {
         }
     }
 
+    #[cfg(feature = "mpi")]
+    /// The sums of both, entry by entry (an island's sums added to the rest's).
+    pub fn add(self, other: Self) -> Self {
+        let (a, b) = (self.parts(), other.parts());
+        Self::from_parts(std::array::from_fn(|k| a[k].add(b[k])))
+    }
+
+    /// Every process's sums added up: `max_across` takes the largest of each scale over
+    /// the processes, then `sum_across` adds the sums of squares expressed at those scales.
+    #[cfg(feature = "mpi")]
+    pub fn add_across(
+        self,
+        max_across: impl FnOnce(&mut [f64]),
+        sum_across: impl FnOnce(&mut [f64]),
+    ) -> Self {
+        let parts = self.parts();
+        let mut scales = parts.map(SumSq::scale);
+        max_across(&mut scales);
+        let mut ssq: [f64; 7] = std::array::from_fn(|k| parts[k].ssq_at(scales[k]));
+        sum_across(&mut ssq);
+        Self::from_parts(std::array::from_fn(|k| SumSq::at(scales[k], ssq[k])))
+    }
+
     /// `||-M v + H r + f|| / max(||f||, ||M v||, ||H r||) + ||r - P_K(r - (u + Phi(u)))|| /
     /// max(||u||, ||r||)`, denominators floored by `floors`; records the denominators in
     /// `scales`.
     pub fn error(&self, floors: Floors, scales: &mut Scales) -> f64 {
-        let scale = self.f.sqrt().max(self.mv.sqrt()).max(self.hr.sqrt());
+        let scale = self.f.norm().max(self.mv.norm()).max(self.hr.norm());
         scales.equation = scale;
-        let e1 = relative(self.equation.sqrt(), scale.max(floors.equation));
-        let scale = self.u.sqrt().max(self.r.sqrt());
+        let e1 = relative(self.equation.norm(), scale.max(floors.equation));
+        let scale = self.u.norm().max(self.r.norm());
         scales.contact = scale;
-        let e2 = relative(self.complementarity.sqrt(), scale.max(floors.contact));
+        let e2 = relative(self.complementarity.norm(), scale.max(floors.contact));
         finite_or_infinite(e1 + e2)
     }
 }
@@ -318,7 +471,7 @@ pub fn local_error_with(p: &LocalProblem, r: &[f64], work: &mut MeasureWork) -> 
     p.w.mul_vec(1.0, r, 1.0, &mut work.u);
     finite_or_infinite(relative(
         complementarity_residual(r, &work.u, &p.mu),
-        norm2(&p.q).max(work.floors.equation),
+        SumSq::of_slice(&p.q).norm().max(work.floors.equation),
     ))
 }
 

@@ -1,6 +1,6 @@
 //! Every constant the solver was tuned with, in one place, each with the evidence for its
 //! value (FCLib figures are at tolerance 1e-8 unless said otherwise). Definitions that are
-//! not choices (the measure's floor `measure::TINY`, the C API's limits) stay where they are
+//! not choices (the C API's limits) stay where they are
 //! defined; the ADMM loop's own constants stay beside the loop in `admm`.
 
 /// Systems of at most this many unknowns are factorized densely: below a few dozen

@@ -9,9 +9,8 @@ namespace cadmm_bullet {
 
 namespace {
 
-const double kTiny = 1.5e-8;  // denominators at or below this are skipped
-
-double relative(double num, double den) { return den > kTiny ? num / den : num; }
+// No floor (docs/algorithms.md §3): a zero denominator leaves the residual as it is.
+double relative(double num, double den) { return den > 0.0 ? num / den : num; }
 
 double norm(const std::vector<double> &x) {
   double s = 0;
@@ -31,6 +30,20 @@ void mulTransAdd(const Csc &A, const double *x, std::vector<double> &y) {
   for (size_t j = 0; j < A.ncols; ++j)
     for (int64_t k = A.colptr[j]; k < A.colptr[j + 1]; ++k)
       y[j] += A.values[size_t(k)] * x[A.rowind[k]];
+}
+
+// y += |A|^T x.
+void absTransAdd(const Csc &A, const double *x, std::vector<double> &y) {
+  for (size_t j = 0; j < A.ncols; ++j)
+    for (int64_t k = A.colptr[j]; k < A.colptr[j + 1]; ++k)
+      y[j] += std::fabs(A.values[size_t(k)] * x[A.rowind[k]]);
+}
+
+// Entry (i, i) of A, zero when the pattern has none.
+double diagonal(const Csc &A, size_t i) {
+  for (int64_t k = A.colptr[i]; k < A.colptr[i + 1]; ++k)
+    if (size_t(A.rowind[k]) == i) return A.values[size_t(k)];
+  return 0.0;
 }
 
 // Projection of z onto K_mu = {||z_T|| <= mu z_N} (zN >= 0 too, which matters for mu = 0).
@@ -74,9 +87,15 @@ double remeasureError(const ContactProblem &p, const double *r, const double *v,
 
   if (nj) {
     mulTransAdd(p.G, v, gv);
-    std::vector<double> jr(nj);
+    std::vector<double> jr(nj), freeV(nj, 0.0), freeAbs(n, 0.0);
     for (size_t k = 0; k < nj; ++k) jr[k] = gv[k] + p.b[k];
-    e += relative(norm(jr), std::max(norm(gv), norm(p.b)));
+    // The velocities the joint rows see under free motion: |G|^T |diag(M)^-1 f|.
+    for (size_t i = 0; i < n; ++i) {
+      const double d = diagonal(p.M, i);
+      freeAbs[i] = d > 0 ? std::fabs(p.f[i] / d) : 0.0;
+    }
+    absTransAdd(p.G, freeAbs.data(), freeV);
+    e += relative(norm(jr), std::max({norm(gv), norm(p.b), norm(freeV)}));
   }
   return std::isfinite(e) ? e : std::numeric_limits<double>::infinity();
 }

@@ -4,9 +4,9 @@
 //
 //   e = ||-M v + H r + G lambda + f|| / max(||f||, ||M v||, ||H r + G lambda||)
 //     + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||),        u = H^T v + w
-//     + ||G^T v + b|| / max(||G^T v||, ||b||)                      (joints only)
+//     + ||G^T v + b|| / max(||G^T v||, ||b||, || |G|^T |diag(M)^-1 f| ||)   (joints only)
 //
-// Phi(u) = (mu ||u_T||, 0, 0) per contact; a denominator at or below 1.5e-8 is skipped.
+// Phi(u) = (mu ||u_T||, 0, 0) per contact; a zero denominator is skipped.
 #pragma once
 
 #include "contact_problem.h"

@@ -3,9 +3,9 @@
 #include <math.h>
 #include <stdlib.h>
 
-#define TINY 1.5e-8 /* denominators at or below this are skipped */
 
-static double relative(double num, double den) { return den > TINY ? num / den : num; }
+/* No floor (docs/algorithms.md §3): a zero denominator leaves the residual as it is. */
+static double relative(double num, double den) { return den > 0.0 ? num / den : num; }
 
 static double norm(const double *x, size_t n) {
     double s = 0.0;

@@ -5,7 +5,7 @@
  *   e = ||-M v + H r + f|| / max(||f||, ||M v||, ||H r||)
  *     + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||),   u = H^T v + w,
  *
- * Phi(u) = (mu ||u_T||, 0, 0) per contact; a denominator at or below 1.5e-8 is skipped. */
+ * Phi(u) = (mu ||u_T||, 0, 0) per contact; a zero denominator is skipped. */
 #ifndef CADMM_ODE_CHECK_H
 #define CADMM_ODE_CHECK_H
 

@@ -268,6 +268,13 @@ impl Halo {
         max
     }
 
+    /// The largest of every process's entries, entry by entry (exact, whatever the order).
+    pub fn max_across_each(&self, x: &mut [f64]) {
+        let mine = x.to_vec();
+        self.comm
+            .all_reduce_into(&mine[..], x, mpi::collective::SystemOperation::max());
+    }
+
     /// Adds up, entry by entry, every process's `partial`, in rank order (a gather, then
     /// the same sum on every process: no reduction tree whose order could vary). The
     /// gather buffer grows to the longest sum asked for, then is reused.

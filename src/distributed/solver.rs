@@ -15,7 +15,7 @@ use super::islands::{RankSplit, Slot};
 use super::problem::{RankError, RankProblem};
 use super::splitting::DistributedSplitting;
 use crate::admm::{run, EngineSettings, EngineState, Splitting};
-use crate::measure::{Floors, GlobalSums, GlobalTerms, Scales};
+use crate::measure::{Floors, GlobalTerms, Scales};
 use crate::problem::{check_len, GlobalProblem, Problem};
 use crate::settings::{InitialRho, LinearSolver, NewtonUse, Resolved, Settings};
 use crate::solver::Solver;
@@ -301,10 +301,7 @@ impl DistributedSolver {
     /// The whole problem's measure at the parts' solutions (a collective call): the sums
     /// it is made of, the shared problem's and the own islands', added across processes.
     fn whole_error(&mut self) -> f64 {
-        let (shared, finite) = self.split.own_sums(&self.state.zeta, self.state.rho);
-        let mut all = [0.0; 8];
-        all[..7].copy_from_slice(&shared.to_array());
-        all[7] = f64::from(u8::from(!finite));
+        let (mut sums, mut finite) = self.split.own_sums(&self.state.zeta, self.state.rho);
         if let (Some(own), Some(p)) = (&self.own, &self.own_problem) {
             let s = own.solution();
             let (mut mv, mut hr) = (vec![0.0; s.v.len()], vec![0.0; s.v.len()]);
@@ -318,20 +315,15 @@ impl DistributedSolver {
                 r: &s.r,
                 mu: &p.mu,
             };
-            for (a, b) in all.iter_mut().zip(terms.sums().to_array()) {
-                *a += b;
-            }
-            let finite = [&s.r, &s.u, &s.v]
+            sums = sums.add(terms.sums());
+            finite &= [&s.r, &s.u, &s.v]
                 .iter()
                 .all(|x| x.iter().all(|v| v.is_finite()));
-            all[7] += f64::from(u8::from(!finite));
         }
-        self.split.sum_across(&mut all);
-        if all[7] > 0.0 {
-            return f64::INFINITY;
+        match self.split.whole_sums(sums, finite) {
+            Some(sums) => sums.error(Floors::default(), &mut Scales::default()),
+            None => f64::INFINITY,
         }
-        let sums = GlobalSums::from_array(all[..7].try_into().expect("seven sums"));
-        sums.error(Floors::default(), &mut Scales::default())
     }
 
     /// Warm starts both parts from their last solutions, for the next round.

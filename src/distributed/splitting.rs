@@ -245,6 +245,26 @@ impl DistributedSplitting {
         }
     }
 
+    /// Every process's measure sums added up, or `None` when some process's vectors are
+    /// not all finite (a collective call).
+    pub fn whole_sums(&self, sums: GlobalSums, finite: bool) -> Option<GlobalSums> {
+        let halo = self.system.halo();
+        let mut failed = false;
+        let whole = sums.add_across(
+            |scales| {
+                // The flag travels with the scales: one exchange for both.
+                let mut all = [0.0; 8];
+                all[..7].copy_from_slice(scales);
+                all[7] = f64::from(u8::from(!finite));
+                halo.max_across_each(&mut all);
+                scales.copy_from_slice(&all[..7]);
+                failed = all[7] > 0.0;
+            },
+            |ssq| halo.sum_across(ssq),
+        );
+        (!failed).then_some(whole)
+    }
+
     /// The largest of every process's `x`.
     pub fn max_across(&self, x: f64) -> f64 {
         self.system.halo().max_across(x)
@@ -327,15 +347,9 @@ impl Splitting for DistributedSplitting {
 
     fn error(&mut self, _ax: &[f64], _y: &[f64], zeta: &[f64], rho: f64) -> f64 {
         let (sums, finite) = self.own_sums(zeta, rho);
-        let mut all = [0.0; 8];
-        all[..7].copy_from_slice(&sums.to_array());
-        all[7] = f64::from(u8::from(!finite));
-        self.sum_across(&mut all);
-        let error = if all[7] > 0.0 {
-            f64::INFINITY
-        } else {
-            let sums = GlobalSums::from_array(all[..7].try_into().expect("seven sums"));
-            sums.error(Floors::default(), &mut self.scales)
+        let error = match self.whole_sums(sums, finite) {
+            Some(sums) => sums.error(Floors::default(), &mut self.scales),
+            None => f64::INFINITY,
         };
         self.last_error = error;
         error

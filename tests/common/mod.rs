@@ -77,23 +77,33 @@ fn matvec_t(a: &[Vec<f64>], x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// The 2-norm, of the entries divided by the largest magnitude (no square overflows or
+/// vanishes, whatever the data's scale).
 fn norm(x: &[f64]) -> f64 {
-    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+    let big = x.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    if big == 0.0 || !big.is_finite() {
+        return big;
+    }
+    big * x.iter().map(|v| (v / big) * (v / big)).sum::<f64>().sqrt()
 }
 
 fn natural_map(r: &[f64], u: &[f64], mu: &[f64]) -> f64 {
-    let mut s = 0.0;
+    let mut residual = Vec::with_capacity(r.len());
     for (i, &m) in mu.iter().enumerate() {
         let (ri, ui) = (&r[3 * i..3 * i + 3], &u[3 * i..3 * i + 3]);
         let ut = [ui[0] + m * ui[1].hypot(ui[2]), ui[1], ui[2]];
         let p = ray_projection([ri[0] - ut[0], ri[1] - ut[1], ri[2] - ut[2]], m);
-        s += (0..3).map(|k| (ri[k] - p[k]).powi(2)).sum::<f64>();
+        residual.extend((0..3).map(|k| ri[k] - p[k]));
     }
-    s.sqrt()
+    norm(&residual)
 }
 
+/// `num / den`, or `num` when `den` is zero (docs/algorithms.md §3: no floor); a norm out
+/// of range counts as an infinite error.
 fn rel(num: f64, den: f64) -> f64 {
-    if den > 1.5e-8 {
+    if !num.is_finite() || !den.is_finite() {
+        f64::INFINITY
+    } else if den > 0.0 {
         num / den
     } else {
         num
@@ -116,7 +126,11 @@ pub fn global_error(p: &GlobalProblem, r: &[f64], v: &[f64], lambda: &[f64]) -> 
         }
         let gv = matvec_t(&g, v);
         let res: Vec<f64> = gv.iter().zip(&j.b).map(|(a, b)| a + b).collect();
-        joint = rel(norm(&res), norm(&gv).max(norm(&j.b)));
+        // The velocities the joint rows see under free motion: |G|^T |diag(M)^-1 f|.
+        let free: Vec<f64> = (0..j.b.len())
+            .map(|k| (0..p.n()).map(|i| (g[i][k] * p.f[i] / m[i][i]).abs()).sum())
+            .collect();
+        joint = rel(norm(&res), norm(&gv).max(norm(&j.b)).max(norm(&free)));
     }
     let eq: Vec<f64> = (0..mv.len()).map(|i| -mv[i] + hr[i] + p.f[i]).collect();
     let e1 = joint + rel(norm(&eq), norm(&p.f).max(norm(&mv)).max(norm(&hr)));

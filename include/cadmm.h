@@ -454,7 +454,11 @@ const char *cadmm_result_message(cadmm_result code);
  * must be initialized. The settings apply as for one process, with the v-update always
  * matrix-free and no Newton phase (a Newton polish asked for is left out); `direct`, the
  * variant `newton` and the spectral first penalties are refused
- * (`CADMM_ERR_UNSUPPORTED`). The solver must be freed before `MPI_Finalize`.
+ * (`CADMM_ERR_UNSUPPORTED`). Every process must pass the same settings, all but the
+ * thread count (tolerance, limits, variant, penalty, Anderson, s update, trace, Newton,
+ * islands, linear solver): the processes take the solve's decisions together, and
+ * settings that differ are every process's `CADMM_ERR_INVALID_SETTING`, naming the
+ * setting and two ranks that differ. The solver must be freed before `MPI_Finalize`.
  *
  * On success `*out` receives this process's solver; on failure, on every process, `*out`
  * is left untouched and `cadmm_last_error` names the failing rank and item. Errors:
@@ -776,8 +780,10 @@ cadmm_result cadmm_solver_new(const struct cadmm_problem *p,
  *
  * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a non-finite value, a
  * negative friction coefficient), `CADMM_ERR_UNSUPPORTED` (a local solver, or G/b for a
- * problem without joints), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a
- * failure the solver refuses to solve, as after a failed `cadmm_solver_update`.
+ * problem without joints), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. A
+ * refused update changes nothing, whatever it was refused for (an M that does not
+ * factorize included): the solver goes on solving the values it held, its warm start,
+ * solution and statistics unchanged.
  */
 cadmm_result cadmm_solver_update_values(struct cadmm_solver *sv,
                                         const double *M_values,
@@ -807,12 +813,10 @@ cadmm_result cadmm_solver_update_local_values(struct cadmm_solver *sv,
  * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION` (other sizes),
  * `CADMM_ERR_PATTERN_CHANGED` (other pattern), `CADMM_ERR_INVALID_VALUE` (a value out of
  * range), `CADMM_ERR_UNSUPPORTED` (a problem of the
- * other form, global or local), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a failure the solver
- * refuses `cadmm_solver_warm_start` and `cadmm_solver_solve` (with the same code) until an
- * update succeeds; the solution and statistics of the last solve stay readable.
+ * other form, global or local), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. A refused
+ * update changes nothing, as for `cadmm_solver_update_values`.
  */
-cadmm_result cadmm_solver_update(struct cadmm_solver *sv,
-                                 const struct cadmm_problem *p);
+cadmm_result cadmm_solver_update(struct cadmm_solver *sv, const struct cadmm_problem *p);
 
 /**
  * Changes the settings of the next solves: the tolerance, the iteration and time limits,
@@ -830,8 +834,7 @@ cadmm_result cadmm_solver_update_settings(struct cadmm_solver *sv, const struct 
  * problem, velocities `v` (`n` entries, may be NULL: then only `r` is used; ignored for a
  * local problem). Typically the previous time step's solution.
  *
- * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a non-finite entry), and
- * the code of a failed `cadmm_solver_update`.
+ * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a non-finite entry).
  */
 cadmm_result cadmm_solver_warm_start(struct cadmm_solver *sv, const double *r, const double *v);
 
@@ -842,8 +845,7 @@ cadmm_result cadmm_solver_warm_start(struct cadmm_solver *sv, const double *r, c
  * (after a non-finite iterate too; the last finite one when none was measured).
  *
  * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_NOT_POSITIVE_DEFINITE`/`CADMM_ERR_SINGULAR`
- * (a refactorization for a new rho failed), and the code of a failed
- * `cadmm_solver_update`.
+ * (a refactorization for a new rho failed).
  */
 cadmm_result cadmm_solver_solve(struct cadmm_solver *sv, cadmm_status *status);
 

@@ -4,8 +4,9 @@
 
 use crate::admm::{self, EngineSettings, EngineState};
 use crate::contact::{contact_form, initial_rho, ContactForm};
+use crate::islands::EVERY_FIELD;
 use crate::measure::Floors;
-use crate::problem::{NewValues, Problem};
+use crate::problem::{KeptValues, NewValues, Problem};
 use crate::settings::{NewtonUse, Resolved, Settings};
 use crate::tuning::{DENSE_MAX, HANDOVER_RETRY_FACTOR, NEWTON_FIRST_STEPS, NEWTON_MAX_STEPS};
 use crate::types::Solution;
@@ -56,6 +57,8 @@ pub(crate) struct CoupledSolver {
     newton_first: bool,
     /// Its Newton steps factorize a dense system.
     dense_newton: bool,
+    /// The values an update replaces, until it has succeeded.
+    kept: KeptValues,
 }
 
 impl CoupledSolver {
@@ -114,6 +117,7 @@ impl CoupledSolver {
             trace: Vec::new(),
             newton_first,
             dense_newton,
+            kept: KeptValues::default(),
         })
     }
 
@@ -151,10 +155,9 @@ impl CoupledSolver {
     /// time step of a simulation): numeric refactorization only, through the same path as
     /// [`CoupledSolver::update_values`].
     pub(crate) fn update(&mut self, problem: Problem) -> Result<(), Error> {
-        self.form.update(problem)?;
-        self.form.ready_for(self.rho0)?;
-        self.warm = false;
-        Ok(())
+        self.kept.keep(self.form.problem(), &EVERY_FIELD);
+        let taken = self.form.update(problem);
+        self.ready_or_undo(taken)
     }
 
     /// Takes new values for the problem on the same sizes and sparsity patterns (the next
@@ -163,14 +166,32 @@ impl CoupledSolver {
     /// the solve's first step where it cannot fail once M passed its check); no sorting,
     /// no allocation (except when a symmetric matrix stops being symmetric, which rebuilds
     /// the system for LU). Every value is checked before any is taken; M is refactorized on
-    /// its own to check it is positive definite, and after a failed factorization the
-    /// solver keeps failing until an update succeeds. The next solve starts
-    /// cold unless [`CoupledSolver::warm_start`] is called after this.
+    /// its own to check it is positive definite; a refused update changes nothing
+    /// ([`CoupledSolver::ready_or_undo`]). The next solve starts cold unless
+    /// [`CoupledSolver::warm_start`] is called after this.
     pub(crate) fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
-        self.form.update_values(values)?;
-        self.form.ready_for(self.rho0)?;
-        self.warm = false;
-        Ok(())
+        self.kept.keep(self.form.problem(), values);
+        let taken = self.form.update_values(values);
+        self.ready_or_undo(taken)
+    }
+
+    /// Refactorizes after new values were `taken`; when either fails, puts back the
+    /// values kept before the update (which factorized), so that a refused update changes
+    /// nothing, the warm start included.
+    fn ready_or_undo(&mut self, taken: Result<(), Error>) -> Result<(), Error> {
+        let Err(e) = taken.and_then(|()| self.form.ready_for(self.rho0)) else {
+            self.warm = false;
+            return Ok(());
+        };
+        let kept = std::mem::take(&mut self.kept);
+        // Should the old values fail too (a solver already failing), the solver goes on
+        // failing as it did.
+        let _ = self
+            .form
+            .update_values(&kept.values())
+            .and_then(|()| self.form.ready_for(self.rho0));
+        self.kept = kept;
+        Err(e)
     }
 
     /// Starts the next solve from impulses `r` (and velocities `v`, global form).

@@ -208,6 +208,21 @@ impl CscMatrix {
         }
     }
 
+    /// The values in the order of the arrays the matrix was built from (what
+    /// [`CscMatrix::set_values`] takes), written into `out` (no allocation once it fits).
+    pub(crate) fn values_in_input_order(&self, out: &mut Vec<f64>) {
+        out.clear();
+        match &self.input_order {
+            None => out.extend_from_slice(&self.values),
+            Some(perm) => {
+                out.resize(self.values.len(), 0.0);
+                for (&v, &k) in self.values.iter().zip(perm) {
+                    out[k] = v;
+                }
+            }
+        }
+    }
+
     /// The checks of [`CscMatrix::set_values`] alone.
     pub fn check_values(&self, field: &'static str, values: &[f64]) -> Result<(), Error> {
         if values.len() != self.values.len() {

@@ -528,3 +528,123 @@ pub struct NewValues<'a> {
     /// Local form: `q`.
     pub q: Option<&'a [f64]>,
 }
+
+/// Copies of a problem's current values for the fields an update names, taken before the
+/// update so that one refused after its values were taken (a matrix that does not
+/// factorize) can be undone: a refused update changes nothing. The buffers are reused
+/// from one update to the next.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct KeptValues {
+    /// `m, h, g, f, w, b, mu, delassus, q`, each with whether it was kept.
+    fields: [(bool, Vec<f64>); 9],
+}
+
+impl KeptValues {
+    /// Keeps `p`'s values of the fields `given` names (fields `p` lacks are not kept).
+    /// Matrix values are kept in the caller's order, as an update takes them.
+    pub(crate) fn keep(&mut self, p: ProblemRef<'_>, given: &NewValues) {
+        let (matrices, vectors): ([Option<&CscMatrix>; 9], [Option<&[f64]>; 9]) = match p {
+            ProblemRef::Global(p) => {
+                let j = p.joints.as_ref();
+                (
+                    [
+                        Some(&p.m),
+                        Some(&p.h),
+                        j.map(|j| &j.g),
+                        None,
+                        None,
+                        None,
+                        None,
+                        None,
+                        None,
+                    ],
+                    [
+                        None,
+                        None,
+                        None,
+                        Some(&p.f),
+                        Some(&p.w),
+                        j.map(|j| &j.b[..]),
+                        Some(&p.mu),
+                        None,
+                        None,
+                    ],
+                )
+            }
+            ProblemRef::Local(p) => (
+                [None, None, None, None, None, None, None, Some(&p.w), None],
+                [
+                    None,
+                    None,
+                    None,
+                    None,
+                    None,
+                    None,
+                    Some(&p.mu),
+                    None,
+                    Some(&p.q),
+                ],
+            ),
+        };
+        let named = [
+            given.m,
+            given.h,
+            given.g,
+            given.f,
+            given.w,
+            given.b,
+            given.mu,
+            given.delassus,
+            given.q,
+        ];
+        for (k, (kept, buffer)) in self.fields.iter_mut().enumerate() {
+            *kept = named[k].is_some() && (matrices[k].is_some() || vectors[k].is_some());
+            if !*kept {
+                continue;
+            }
+            match (matrices[k], vectors[k]) {
+                (Some(a), _) => a.values_in_input_order(buffer),
+                (None, Some(x)) => {
+                    buffer.clear();
+                    buffer.extend_from_slice(x);
+                }
+                (None, None) => {}
+            }
+        }
+    }
+
+    /// The kept values, as an update that puts them back.
+    pub(crate) fn values(&self) -> NewValues<'_> {
+        let [m, h, g, f, w, b, mu, delassus, q] =
+            std::array::from_fn(|k| self.fields[k].0.then_some(&self.fields[k].1[..]));
+        NewValues {
+            m,
+            h,
+            g,
+            f,
+            w,
+            b,
+            mu,
+            delassus,
+            q,
+        }
+    }
+}
+
+/// A borrowed problem of either form.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum ProblemRef<'a> {
+    /// Global form.
+    Global(&'a GlobalProblem),
+    /// Local form.
+    Local(&'a LocalProblem),
+}
+
+impl<'a> From<&'a Problem> for ProblemRef<'a> {
+    fn from(p: &'a Problem) -> Self {
+        match p {
+            Problem::Global(g) => Self::Global(g),
+            Problem::Local(l) => Self::Local(l),
+        }
+    }
+}

@@ -5,7 +5,7 @@
 use crate::csc::norm2;
 use crate::islands::{contact_rows, gather, positions, Part, Partition, EVERY_FIELD};
 use crate::measure::{solution_error, MeasureWork, Scales};
-use crate::problem::{check_len, NewValues, Problem};
+use crate::problem::{check_len, KeptValues, NewValues, Problem};
 use crate::settings::{NewtonUse, Settings};
 use crate::small_island::SmallWork;
 use crate::strategy::{PartSolver, SolveContext};
@@ -36,6 +36,8 @@ pub(crate) struct Scene {
     row_of: Vec<usize>,
     /// Work space of the small islands, one per thread that solves them.
     work: Vec<SmallWork>,
+    /// The values an update replaces, until it has succeeded.
+    kept: KeptValues,
 }
 
 impl Scene {
@@ -86,18 +88,40 @@ impl Scene {
             slowest: None,
             row_of,
             work,
+            kept: KeptValues::default(),
         })
     }
 
     pub(crate) fn update(&mut self, problem: Problem) -> Result<(), Error> {
         self.whole.check_successor(&problem)?;
-        self.whole = problem;
-        self.distribute(&EVERY_FIELD)
+        let before = std::mem::replace(&mut self.whole, problem);
+        let Err(e) = self.distribute(&EVERY_FIELD) else {
+            return Ok(());
+        };
+        // A part refused its values: every part goes back to the problem before.
+        self.whole = before;
+        let _ = self.distribute(&EVERY_FIELD);
+        Err(e)
     }
 
     pub(crate) fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
-        self.whole.set_values(values)?;
-        self.distribute(values)
+        let mut kept = std::mem::take(&mut self.kept);
+        kept.keep((&self.whole).into(), values);
+        let taken = self
+            .whole
+            .set_values(values)
+            .and_then(|()| self.distribute(values));
+        if taken.is_err() {
+            // A part refused its values (the rest took theirs): every part goes back to
+            // the values kept, so that a refused update changes nothing.
+            let back = kept.values();
+            let _ = self
+                .whole
+                .set_values(&back)
+                .and_then(|()| self.distribute(&back));
+        }
+        self.kept = kept;
+        taken
     }
 
     /// Takes the settings a solve reads when it starts.

@@ -136,9 +136,11 @@ impl Solver {
     /// system matrices through maps built once, then one numeric refactorization per
     /// island; no sorting, no allocation (except when a symmetric matrix stops being
     /// symmetric, which rebuilds that system for LU). Every value is checked before any is
-    /// taken; M is refactorized on its own to check it is positive definite, and after a
-    /// failed factorization the solver keeps failing until an update succeeds. The next
-    /// solve starts cold unless [`Solver::warm_start`] is called after this.
+    /// taken; M is refactorized on its own to check it is positive definite. A refused
+    /// update changes nothing, whatever it was refused for: values refused after they
+    /// were taken (a factorization that fails) are replaced by the ones kept from before,
+    /// and the solver goes on solving those. After a successful update the next solve
+    /// starts cold unless [`Solver::warm_start`] is called after this.
     pub fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
         match &mut self.layout {
             Layout::Whole(s) => s.update_values(values),

@@ -304,3 +304,63 @@ fn child() {
     let dir = PathBuf::from(std::env::var_os(OUT).unwrap());
     std::fs::write(dir.join(format!("rank-{rank}.txt")), text).unwrap();
 }
+
+/// Settings that differ between processes: before, the processes hung (in the solve for
+/// another tolerance, limit or variant, already in `new` for islands on one and off on the
+/// other). Now `new` refuses them on every process, naming the setting and the ranks.
+#[test]
+fn settings_that_differ_between_processes_are_refused() {
+    let name = "settings_that_differ_between_processes_are_refused";
+    if std::env::var_os(CHILD).is_some() {
+        return settings_child();
+    }
+    for case in ["tolerance", "max_iterations", "variant", "islands"] {
+        let dir = scratch(&format!("settings-{case}"));
+        mpirun(name, 2, case, &dir);
+        for rank in 0..2 {
+            let said = std::fs::read_to_string(dir.join(format!("rank-{rank}.txt"))).unwrap();
+            assert!(
+                said.starts_with("InvalidSetting")
+                    && said.contains(&format!("invalid setting {case}:"))
+                    && said.contains("rank 0 has")
+                    && said.contains("rank 1 has"),
+                "{case}, rank {rank}: {said}"
+            );
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+/// One process of [`settings_that_differ_between_processes_are_refused`]: rank 1 changes
+/// the setting the case names; each process writes what `new` said.
+fn settings_child() {
+    let universe = mpi::initialize().expect("MPI starts");
+    let world = universe.world();
+    let (rank, size) = (world.rank() as usize, world.size() as usize);
+    let scene = pile("islands");
+    let p = scene.global();
+    let (body_rank, contact_rank) = slabs(&scene, size);
+    let part = RankProblem::split(
+        &p,
+        &vec![6; scene.bodies.len()],
+        &body_rank,
+        &contact_rank,
+        rank,
+    )
+    .unwrap();
+    let mut s = settings();
+    if rank == 1 {
+        match std::env::var(PILE).unwrap().as_str() {
+            "tolerance" => s.tolerance = 1e-10,
+            "max_iterations" => s.max_iterations = 77,
+            "variant" => s.variant = cadmm::VariantChoice::from_name("vp-RR-He").unwrap(),
+            _ => s.islands = false,
+        }
+    }
+    let said = match DistributedSolver::new(&world, part, s) {
+        Ok(_) => "built".to_string(),
+        Err(e) => format!("{:?}: {}", e.kind, e.message),
+    };
+    let dir = PathBuf::from(std::env::var_os(OUT).unwrap());
+    std::fs::write(dir.join(format!("rank-{rank}.txt")), said).unwrap();
+}

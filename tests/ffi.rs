@@ -1215,30 +1215,47 @@ fn update_and_warm_start() {
         assert_eq!(cadmm_solver_solve(sv, &mut status), CADMM_OK);
         assert_eq!(status, CADMM_STATUS_SOLVED);
 
-        // An indefinite M with the same pattern: the update fails, and the solver refuses
-        // to solve until an update succeeds; the last solution stays readable.
+        // An indefinite M with the same pattern: the update is refused and changes nothing:
+        // the solver solves the problem it held, and an update of f alone (M kept) is taken.
         let bad_m = global_problem_with([1.0, -1.0, 1.0], F);
         assert_eq!(
             cadmm_solver_update(sv, bad_m),
             CADMM_ERR_NOT_POSITIVE_DEFINITE
         );
+        assert!(last_error(sv).contains("positive definite"));
         status = 42;
-        assert_eq!(
-            cadmm_solver_solve(sv, &mut status),
-            CADMM_ERR_NOT_POSITIVE_DEFINITE
-        );
-        assert_eq!(status, 42);
-        assert!(last_error(sv).contains("cadmm_solver_update"));
-        assert_eq!(
-            cadmm_solver_warm_start(sv, r.as_ptr(), null()),
-            CADMM_ERR_NOT_POSITIVE_DEFINITE
-        );
+        assert_eq!(cadmm_solver_solve(sv, &mut status), CADMM_OK);
+        assert_eq!(status, CADMM_STATUS_SOLVED);
         let mut r2 = [0.0; 3];
         assert_eq!(
             cadmm_solver_get_solution(sv, r2.as_mut_ptr(), null_mut(), null_mut()),
             CADMM_OK
         );
         assert!((r2[0] - 9.81).abs() < 1e-6);
+        assert_eq!(cadmm_solver_warm_start(sv, r.as_ptr(), null()), CADMM_OK);
+        let f2 = [2.0 * F[0], F[1], F[2]];
+        assert_eq!(
+            cadmm_solver_update_values(
+                sv,
+                null(),
+                null(),
+                null(),
+                f2.as_ptr(),
+                null(),
+                null(),
+                null()
+            ),
+            CADMM_OK,
+            "{}",
+            last_error(sv)
+        );
+        assert_eq!(cadmm_solver_solve(sv, &mut status), CADMM_OK);
+        assert_eq!(status, CADMM_STATUS_SOLVED);
+        assert_eq!(
+            cadmm_solver_get_solution(sv, r2.as_mut_ptr(), null_mut(), null_mut()),
+            CADMM_OK
+        );
+        assert!((r2[0] - 2.0 * 9.81).abs() < 1e-6, "{r2:?}");
         assert_eq!(cadmm_solver_update(sv, p), CADMM_OK);
         assert_eq!(cadmm_solver_solve(sv, &mut status), CADMM_OK);
         assert_eq!(status, CADMM_STATUS_SOLVED);

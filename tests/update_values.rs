@@ -387,3 +387,108 @@ fn values_path_allocates_nothing_and_refuses_bad_values() {
     let error = common::global_error(&global(&next), &s.r, &s.v, &s.lambda);
     assert!(error <= 1e-10, "error {error:e}");
 }
+
+/// A refused update changes nothing, whatever it was refused for, also when it is refused
+/// only once its values were taken (an indefinite M fails its factorization): the solver
+/// solves the data it held before, bitwise as before, and a later update that sends only
+/// a new `f` (M kept) succeeds and solves the old M with the new f.
+#[test]
+fn a_refused_update_changes_nothing() {
+    let one = global(&stack(5, 0.0));
+    let three = Problem::block_diagonal(&[
+        Problem::Global(one.clone()),
+        Problem::Global(one.clone()),
+        Problem::Global(one.clone()),
+    ])
+    .unwrap();
+    let Problem::Global(three) = three else {
+        unreachable!()
+    };
+    for (label, p) in [("one island", one), ("three islands", three)] {
+        let mut solver = Solver::new(Problem::Global(p.clone()), settings()).unwrap();
+        solver.solve().unwrap();
+        let before = solver.solution().clone();
+        // An indefinite M: the first diagonal entry negated.
+        let diag = (p.m.colptr()[0]..p.m.colptr()[1])
+            .find(|&k| p.m.rowind()[k] == 0)
+            .unwrap();
+        let mut indefinite = p.m.values().to_vec();
+        indefinite[diag] = -indefinite[diag];
+        let mut nan_f = p.f.clone();
+        nan_f[1] = f64::NAN;
+        let short_h = &p.h.values()[1..];
+        let negative_mu = vec![-0.5; p.mu.len()];
+        let refusals: [(&str, NewValues); 5] = [
+            (
+                "indefinite M",
+                NewValues {
+                    m: Some(&indefinite),
+                    ..Default::default()
+                },
+            ),
+            (
+                "indefinite M with a new f",
+                NewValues {
+                    m: Some(&indefinite),
+                    f: Some(&p.f),
+                    ..Default::default()
+                },
+            ),
+            (
+                "NaN in f",
+                NewValues {
+                    f: Some(&nan_f),
+                    ..Default::default()
+                },
+            ),
+            (
+                "short H",
+                NewValues {
+                    h: Some(short_h),
+                    ..Default::default()
+                },
+            ),
+            (
+                "negative mu",
+                NewValues {
+                    mu: Some(&negative_mu),
+                    ..Default::default()
+                },
+            ),
+        ];
+        for (what, values) in refusals {
+            assert!(solver.update_values(&values).is_err(), "{label}: {what}");
+            assert_eq!(solver.solve().unwrap(), Status::Solved, "{label}: {what}");
+            assert_eq!(
+                solver.solution(),
+                &before,
+                "{label}: after a refused update ({what}) the solve changed"
+            );
+        }
+        // The same for a whole problem refused: M indefinite.
+        let mut bad = p.clone();
+        bad.m.set_values("M", &indefinite).unwrap();
+        assert!(solver.update(Problem::Global(bad)).is_err(), "{label}");
+        solver.solve().unwrap();
+        assert_eq!(
+            solver.solution(),
+            &before,
+            "{label}: after a refused update"
+        );
+
+        // Only a new f, M kept (not sent): taken, and solved with the M held before.
+        let f2: Vec<f64> = p.f.iter().map(|x| 1.5 * x).collect();
+        solver
+            .update_values(&NewValues {
+                f: Some(&f2),
+                ..Default::default()
+            })
+            .unwrap_or_else(|e| panic!("{label}: an update of f alone was refused: {e}"));
+        assert_eq!(solver.solve().unwrap(), Status::Solved, "{label}");
+        let s = solver.solution();
+        let mut expected = p.clone();
+        expected.f = f2;
+        let error = common::global_error(&expected, &s.r, &s.v, &s.lambda);
+        assert!(error <= 1e-10, "{label}: error {error:e}");
+    }
+}

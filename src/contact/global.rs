@@ -18,7 +18,7 @@ use crate::linsys::{
 };
 use crate::measure::{global_error_with, Floors, MeasureWork};
 use crate::newton::{GlobalNewton, NewtonOutcome};
-use crate::problem::{GlobalProblem, Problem};
+use crate::problem::{GlobalProblem, Problem, ProblemRef};
 use crate::settings::LinearSolver;
 use crate::tuning::{
     FACTOR_MAX_ENTRIES, JOINT_DELTA, MATRIX_FREE_MIN_FILL, PCG_ERROR_SHARE,
@@ -611,6 +611,10 @@ impl ContactForm for GlobalSplitting {
 
     fn n_velocities(&self) -> usize {
         self.p.n()
+    }
+
+    fn problem(&self) -> ProblemRef<'_> {
+        ProblemRef::Global(&self.p)
     }
 
     fn cold_start(&mut self, state: &mut EngineState) {

@@ -12,7 +12,7 @@ use crate::linsys::param_matrix::{triplets, Assembly};
 use crate::linsys::{Factor, FactorKind, ParamMatrix};
 use crate::measure::{local_error_with, Floors, MeasureWork};
 use crate::newton::{LocalNewton, NewtonOutcome};
-use crate::problem::{LocalProblem, NewValues, Problem};
+use crate::problem::{LocalProblem, NewValues, Problem, ProblemRef};
 use crate::types::Error;
 use crate::types::Solution;
 use std::time::Instant;
@@ -224,6 +224,10 @@ impl ContactForm for LocalSplitting {
 
     fn n_velocities(&self) -> usize {
         0
+    }
+
+    fn problem(&self) -> ProblemRef<'_> {
+        ProblemRef::Local(&self.p)
     }
 
     fn cold_start(&mut self, state: &mut EngineState) {

@@ -18,7 +18,7 @@ use crate::admm::{EngineState, Splitting};
 use crate::cone::{de_saxce_term, get3, set3};
 use crate::measure::Floors;
 use crate::newton::NewtonOutcome;
-use crate::problem::{NewValues, Problem};
+use crate::problem::{NewValues, Problem, ProblemRef};
 use crate::settings::LinearSolver;
 use crate::types::Error;
 use crate::types::Solution;
@@ -41,6 +41,8 @@ pub(crate) trait ContactForm: Splitting + Send {
     }
     /// Length of `v` (0 for the local form).
     fn n_velocities(&self) -> usize;
+    /// The problem as the form holds it now.
+    fn problem(&self) -> ProblemRef<'_>;
     /// Cold start: zero iterate, initial De Saxce shift.
     fn cold_start(&mut self, state: &mut EngineState);
     /// The short cut of a problem whose contacts all separate under the free motion: when

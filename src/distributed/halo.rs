@@ -347,7 +347,7 @@ pub(crate) fn agree_on(
 }
 
 /// Every process's `mine`, rank after rank.
-fn all_gather_varcount(comm: &SimpleCommunicator, mine: &[u64]) -> Vec<Vec<u64>> {
+pub(crate) fn all_gather_varcount(comm: &SimpleCommunicator, mine: &[u64]) -> Vec<Vec<u64>> {
     let mut counts = vec![0 as Count; comm.size() as usize];
     comm.all_gather_into(&(mine.len() as Count), &mut counts[..]);
     let displs = displacements(&counts);

@@ -10,7 +10,7 @@
 //! problem's measure judges the assembled answer, and when it misses the tolerance both
 //! are solved again, warm, to a tighter one.
 
-use super::halo::agree_on;
+use super::halo::{agree_on, all_gather_varcount};
 use super::islands::{RankSplit, Slot};
 use super::problem::{RankError, RankProblem};
 use super::splitting::DistributedSplitting;
@@ -76,7 +76,9 @@ impl DistributedSolver {
     /// given, and no Newton phase runs on it (as one process's matrix-free backend); a
     /// process's own islands are solved with the settings as given. Other choices are an
     /// [`crate::Error::Unsupported`] or [`crate::Error::InvalidSetting`] error, on every
-    /// process. With `islands` off, the whole problem is shared.
+    /// process. Every process must pass the same settings but for `threads`; any other
+    /// that differs is every process's [`ErrorKind::InvalidSetting`], naming it and the
+    /// ranks. With `islands` off, the whole problem is shared.
     pub fn new(
         comm: &SimpleCommunicator,
         part: RankProblem,
@@ -85,6 +87,7 @@ impl DistributedSolver {
         let t0 = Instant::now();
         let rank = comm.rank() as usize;
         agree_on(comm, supported(&settings))?;
+        same_settings(comm, &settings)?;
         let n_velocities = part.n_velocities();
         let cut = RankSplit::new(comm, part, settings.islands)?;
         let mut split = DistributedSplitting::new(comm, cut.shared)?;
@@ -538,6 +541,60 @@ fn supported(settings: &Settings) -> Result<(), crate::Error> {
              problem takes acary, normal or a given rho"
                 .into(),
         ));
+    }
+    Ok(())
+}
+
+/// Every process must solve with the same settings (all but `threads`, each process's own
+/// pool): the shared solve takes its decisions (stop, penalty, Anderson steps, rounds)
+/// together, and a process that decided otherwise would wait forever for the others. Each
+/// setting is compared as text across processes, and the first that differs is every
+/// process's [`ErrorKind::InvalidSetting`], naming it, the two ranks and their values.
+fn same_settings(comm: &SimpleCommunicator, s: &Settings) -> Result<(), RankError> {
+    let fields = [
+        ("tolerance", format!("{:?}", s.tolerance)),
+        ("max_iterations", format!("{:?}", s.max_iterations)),
+        ("time_limit", format!("{:?}", s.time_limit)),
+        ("variant", format!("{:?}", s.variant)),
+        ("initial_rho", format!("{:?}", s.initial_rho)),
+        ("s_update", format!("{:?}", s.s_update)),
+        ("anderson", format!("{:?}", s.anderson)),
+        ("anderson_interval", format!("{:?}", s.anderson_interval)),
+        ("trace", format!("{:?}", s.trace)),
+        ("newton_polish", format!("{:?}", s.newton_polish)),
+        ("islands", format!("{:?}", s.islands)),
+        ("linear_solver", format!("{:?}", s.linear_solver)),
+    ];
+    let mine: Vec<u64> = fields
+        .iter()
+        .map(|(_, value)| value.as_str())
+        .collect::<Vec<_>>()
+        .join("\n")
+        .bytes()
+        .map(u64::from)
+        .collect();
+    let all = all_gather_varcount(comm, &mine);
+    let text = |rank: usize| {
+        String::from_utf8_lossy(&all[rank].iter().map(|&b| b as u8).collect::<Vec<_>>())
+            .into_owned()
+    };
+    let first = text(0);
+    for rank in 1..all.len() {
+        let other = text(rank);
+        let differing = fields
+            .iter()
+            .zip(first.split('\n').zip(other.split('\n')))
+            .find(|(_, (a, b))| a != b);
+        if let Some(((name, _), (a, b))) = differing {
+            return Err(RankError {
+                rank,
+                kind: ErrorKind::InvalidSetting,
+                message: format!(
+                    "invalid setting {name}: rank 0 has {a}, rank {rank} has {b}; every process \
+                     must solve with the same settings (all but threads)"
+                ),
+            });
+        }
     }
     Ok(())
 }

@@ -152,7 +152,11 @@ fn host_communicator(comm: c_int) -> FfiResult<ManuallyDrop<SimpleCommunicator>>
 /// must be initialized. The settings apply as for one process, with the v-update always
 /// matrix-free and no Newton phase (a Newton polish asked for is left out); `direct`, the
 /// variant `newton` and the spectral first penalties are refused
-/// (`CADMM_ERR_UNSUPPORTED`). The solver must be freed before `MPI_Finalize`.
+/// (`CADMM_ERR_UNSUPPORTED`). Every process must pass the same settings, all but the
+/// thread count (tolerance, limits, variant, penalty, Anderson, s update, trace, Newton,
+/// islands, linear solver): the processes take the solve's decisions together, and
+/// settings that differ are every process's `CADMM_ERR_INVALID_SETTING`, naming the
+/// setting and two ranks that differ. The solver must be freed before `MPI_Finalize`.
 ///
 /// On success `*out` receives this process's solver; on failure, on every process, `*out`
 /// is left untouched and `cadmm_last_error` names the failing rank and item. Errors:

@@ -63,10 +63,12 @@ pub use settings::{
     cadmm_settings_set_variant,
 };
 pub use solver::{
-    cadmm_solver, cadmm_solver_free, cadmm_solver_get_joint_multipliers, cadmm_solver_get_solution,
-    cadmm_solver_get_stats, cadmm_solver_get_trace, cadmm_solver_get_trace_phase,
-    cadmm_solver_last_error, cadmm_solver_new, cadmm_solver_solve, cadmm_solver_trace_len,
-    cadmm_solver_update, cadmm_solver_warm_start,
+    cadmm_solver, cadmm_solver_free, cadmm_solver_get_island_stats,
+    cadmm_solver_get_joint_multipliers, cadmm_solver_get_solution, cadmm_solver_get_stats,
+    cadmm_solver_get_trace, cadmm_solver_get_trace_phase, cadmm_solver_last_error,
+    cadmm_solver_new, cadmm_solver_solve, cadmm_solver_trace_len, cadmm_solver_update,
+    cadmm_solver_update_local_values, cadmm_solver_update_settings, cadmm_solver_update_values,
+    cadmm_solver_warm_start,
 };
 pub use stats::{cadmm_stats, cadmm_trace_point};
 

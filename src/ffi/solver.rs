@@ -15,15 +15,12 @@ use crate::types::{Phase, TracePoint};
 use std::cell::RefCell;
 use std::ffi::{c_char, CString};
 
-/// Why a solver refuses to solve until something is done about it.
+/// Why a solver refuses every call but `cadmm_solver_last_error` and `cadmm_solver_free`.
 #[derive(Debug)]
 enum Broken {
     /// A panic was caught inside a call that was changing the solver: its state is unknown.
     /// Only `cadmm_solver_last_error` and `cadmm_solver_free` still work.
     Panicked,
-    /// The last `cadmm_solver_update` failed, possibly halfway through replacing the
-    /// matrices; a successful update repairs the solver.
-    UpdateFailed(Failure),
 }
 
 /// A solver for one problem and its successors with the same sparsity pattern. Opaque;
@@ -48,22 +45,13 @@ impl cadmm_solver {
         *self.last_error.borrow_mut() = text;
     }
 
-    fn check_usable(&self, for_solving: bool) -> FfiResult {
+    fn check_usable(&self) -> FfiResult {
         match &self.broken {
             None => Ok(()),
             Some(Broken::Panicked) => Err(Failure::new(
                 CADMM_ERR_PANIC,
                 "the solver is unusable after an internal error (panic); free it",
             )),
-            Some(Broken::UpdateFailed(f)) if for_solving => Err(Failure::new(
-                f.code,
-                format!(
-                    "the last cadmm_solver_update failed ({}); update the solver with a valid \
-                     problem before solving",
-                    f.message
-                ),
-            )),
-            Some(Broken::UpdateFailed(_)) => Ok(()),
         }
     }
 }
@@ -109,7 +97,7 @@ unsafe fn with_solver(
         check_ptr("sv", sv)?;
         // SAFETY: a live handle by contract.
         let sv = unsafe { &*sv };
-        let outcome = catch(|| sv.check_usable(false).and_then(|()| body(sv)));
+        let outcome = catch(|| sv.check_usable().and_then(|()| body(sv)));
         match outcome {
             Ok(Ok(())) => Ok(()),
             Ok(Err(failure)) => {
@@ -172,24 +160,14 @@ fn value_lens(p: &Problem) -> [usize; 4] {
     }
 }
 
-/// Runs an update of the solver's problem; a failure leaves the solver refusing to solve
-/// until an update succeeds.
+/// Runs an update of the solver's problem. A refused update changes nothing: the solver
+/// goes on solving the problem it held (`Solver::update_values`).
 fn update_with(
     sv: &mut cadmm_solver,
     update: impl FnOnce(&mut Solver) -> Result<(), crate::Error>,
 ) -> FfiResult {
-    sv.check_usable(false)?;
-    match update(&mut sv.solver) {
-        Ok(()) => {
-            sv.broken = None;
-            Ok(())
-        }
-        Err(e) => {
-            let failure = Failure::from(e);
-            sv.broken = Some(Broken::UpdateFailed(failure.clone()));
-            Err(failure)
-        }
-    }
+    sv.check_usable()?;
+    update(&mut sv.solver).map_err(Failure::from)
 }
 
 /// An optional input array: NULL means "keep the current values".
@@ -215,8 +193,10 @@ unsafe fn optional<'a>(what: &str, ptr: *const f64, len: usize) -> FfiResult<Opt
 ///
 /// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a non-finite value, a
 /// negative friction coefficient), `CADMM_ERR_UNSUPPORTED` (a local solver, or G/b for a
-/// problem without joints), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a
-/// failure the solver refuses to solve, as after a failed `cadmm_solver_update`.
+/// problem without joints), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. A
+/// refused update changes nothing, whatever it was refused for (an M that does not
+/// factorize included): the solver goes on solving the values it held, its warm start,
+/// solution and statistics unchanged.
 #[no_mangle]
 #[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn cadmm_solver_update_values(
@@ -231,7 +211,7 @@ pub unsafe extern "C" fn cadmm_solver_update_values(
 ) -> cadmm_result {
     let body = |sv: &mut cadmm_solver| -> FfiResult {
         if !sv.is_global {
-            // Refused like any failed update: the solver refuses to solve until one succeeds.
+            // Refused like any failed update, before anything changes.
             return update_with(sv, |_| {
                 Err(crate::Error::Unsupported(
                     "cadmm_solver_update_values: the solver holds a local problem; use \
@@ -274,7 +254,7 @@ pub unsafe extern "C" fn cadmm_solver_update_local_values(
 ) -> cadmm_result {
     let body = |sv: &mut cadmm_solver| -> FfiResult {
         if sv.is_global {
-            // Refused like any failed update: the solver refuses to solve until one succeeds.
+            // Refused like any failed update, before anything changes.
             return update_with(sv, |_| {
                 Err(crate::Error::Unsupported(
                     "cadmm_solver_update_local_values: the solver holds a global problem; use \
@@ -306,9 +286,8 @@ pub unsafe extern "C" fn cadmm_solver_update_local_values(
 /// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_DIMENSION` (other sizes),
 /// `CADMM_ERR_PATTERN_CHANGED` (other pattern), `CADMM_ERR_INVALID_VALUE` (a value out of
 /// range), `CADMM_ERR_UNSUPPORTED` (a problem of the
-/// other form, global or local), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. After a failure the solver
-/// refuses `cadmm_solver_warm_start` and `cadmm_solver_solve` (with the same code) until an
-/// update succeeds; the solution and statistics of the last solve stay readable.
+/// other form, global or local), `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`. A refused
+/// update changes nothing, as for `cadmm_solver_update_values`.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_solver_update(
     sv: *mut cadmm_solver,
@@ -336,7 +315,7 @@ pub unsafe extern "C" fn cadmm_solver_update_settings(
     s: *const cadmm_settings,
 ) -> cadmm_result {
     let body = |sv: &mut cadmm_solver| -> FfiResult {
-        sv.check_usable(false)?;
+        sv.check_usable()?;
         // SAFETY: a live handle by contract.
         let settings = unsafe { settings_ref("s", s)? };
         sv.solver.update_settings(settings.clone())?;
@@ -350,8 +329,7 @@ pub unsafe extern "C" fn cadmm_solver_update_settings(
 /// problem, velocities `v` (`n` entries, may be NULL: then only `r` is used; ignored for a
 /// local problem). Typically the previous time step's solution.
 ///
-/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a non-finite entry), and
-/// the code of a failed `cadmm_solver_update`.
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a non-finite entry).
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_solver_warm_start(
     sv: *mut cadmm_solver,
@@ -359,7 +337,7 @@ pub unsafe extern "C" fn cadmm_solver_warm_start(
     v: *const f64,
 ) -> cadmm_result {
     let body = |sv: &mut cadmm_solver| -> FfiResult {
-        sv.check_usable(true)?;
+        sv.check_usable()?;
         let l = contact_len(sv.n_contacts)?;
         // SAFETY (reads): lengths from the problem, as documented above.
         let r = unsafe { input("r", r, l)? };
@@ -381,15 +359,14 @@ pub unsafe extern "C" fn cadmm_solver_warm_start(
 /// (after a non-finite iterate too; the last finite one when none was measured).
 ///
 /// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_NOT_POSITIVE_DEFINITE`/`CADMM_ERR_SINGULAR`
-/// (a refactorization for a new rho failed), and the code of a failed
-/// `cadmm_solver_update`.
+/// (a refactorization for a new rho failed).
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_solver_solve(
     sv: *mut cadmm_solver,
     status: *mut cadmm_status,
 ) -> cadmm_result {
     let body = |sv: &mut cadmm_solver| -> FfiResult {
-        sv.check_usable(true)?;
+        sv.check_usable()?;
         check_ptr("status", status.cast_const())?;
         let s = sv.solver.solve()?;
         // SAFETY: checked non-NULL and aligned.
@@ -548,7 +525,7 @@ pub unsafe extern "C" fn cadmm_solver_trace_len(sv: *const cadmm_solver) -> usiz
         }
         // SAFETY: a live handle by contract.
         let sv = unsafe { &*sv };
-        if sv.check_usable(false).is_err() {
+        if sv.check_usable().is_err() {
             return 0;
         }
         sv.solver.trace().len()

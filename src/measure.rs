@@ -441,6 +441,11 @@ fn least_squares_multipliers(p: &GlobalProblem, mv: &[f64], hr: &[f64]) -> Vec<f
         return Vec::new();
     };
     let (n, np) = (p.n(), j.b.len());
+    if n == 0 || np == 0 {
+        // G has no entry: no multiplier moves the equation (and nalgebra's SVD of an
+        // empty matrix panics).
+        return vec![0.0; np];
+    }
     let mut g = nalgebra::DMatrix::<f64>::zeros(n, np);
     for k in 0..np {
         for (i, x) in j.g.col(k) {
@@ -488,5 +493,44 @@ pub(crate) fn solution_error(p: &Problem, s: &Solution, work: &mut MeasureWork) 
     match p {
         Problem::Global(g) => global_error_with(g, &s.r, &s.v, &s.lambda, work),
         Problem::Local(l) => local_error_with(l, &s.r, work),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::csc::CscMatrix;
+
+    fn empty(nrows: usize, ncols: usize) -> CscMatrix {
+        CscMatrix::from_triplets("M", nrows, ncols, &[]).unwrap()
+    }
+
+    /// No velocity and two joint rows: the multipliers are recomputed from an empty G
+    /// (whose SVD panicked), and the error is that of the joint residual `||b||`.
+    #[test]
+    fn joints_without_velocities_are_measured() {
+        let p = GlobalProblem::new(empty(0, 0), empty(0, 0), vec![], vec![], vec![])
+            .unwrap()
+            .with_joints(empty(0, 2), vec![0.0, 0.0])
+            .unwrap();
+        assert_eq!(global_error(&p, &[], &[], &[]), 0.0);
+        let q = p.clone().with_joints(empty(0, 2), vec![1.0, 0.0]).unwrap();
+        assert_eq!(global_error(&q, &[], &[], &[]), 1.0);
+    }
+
+    /// Sums of squares in and out of the plain range: the same norm as an exact scaling.
+    #[test]
+    fn sums_of_squares_stay_in_range() {
+        for scale in [1.0, 1e-200, 1e-310, 1e200, 1e300] {
+            let x = [3.0 * scale, -4.0 * scale];
+            let n = SumSq::of_slice(&x).norm();
+            assert!(
+                (n - 5.0 * scale).abs() <= 1e-15 * 5.0 * scale,
+                "{scale:e}: {n:e}"
+            );
+        }
+        assert_eq!(SumSq::of_slice(&[0.0, 0.0]).norm(), 0.0);
+        assert_eq!(SumSq::of_slice(&[f64::MAX, f64::MAX]).norm(), f64::INFINITY);
+        assert!(SumSq::of_slice(&[f64::NAN]).norm().is_infinite());
     }
 }

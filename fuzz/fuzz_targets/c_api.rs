@@ -300,10 +300,7 @@ fn run(data: &[u8]) -> Result<()> {
     );
     let size_lie = lie(&mut u)?;
     let p = new_problem(&mut u, n, nc, global, size_lie)?;
-    // Not with n = 0: cadmm_problem_error then panics in the joints' least squares (an SVD
-    // of the empty G, src/measure.rs; found by this target, reported with issue 41). Lift
-    // the condition once that is fixed.
-    if !p.is_null() && global && n > 0 && u.ratio(1, 4)? {
+    if !p.is_null() && global && u.ratio(1, 4)? {
         joints(&mut u, p, n)?;
     }
     let mut s: *mut cadmm_settings = null_mut();

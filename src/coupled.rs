@@ -2,7 +2,7 @@
 //! are off): a problem's form, its settings and the last iterate. Everything that depends
 //! on the form lives in the form itself ([`crate::contact::ContactForm`]).
 
-use crate::admm::{self, EngineSettings, EngineState};
+use crate::admm::{self, EngineSettings, EngineState, SUpdate};
 use crate::contact::{contact_form, initial_rho, ContactForm};
 use crate::islands::EVERY_FIELD;
 use crate::measure::Floors;
@@ -225,11 +225,11 @@ impl CoupledSolver {
         if let Some((status, error)) = self.short_cut() {
             return Ok(self.end_without_iterating(status, error, t0));
         }
-        if !self.warm {
+        let warm = std::mem::replace(&mut self.warm, false);
+        if !warm {
             self.state.rho = self.rho0;
             self.form.cold_start(&mut self.state);
         }
-        self.warm = false;
         self.trace.clear();
         let set = self
             .settings
@@ -248,12 +248,44 @@ impl CoupledSolver {
             linear_iterations: self.form.linear_iterations(),
             newton_budget: None,
         };
-        // ADMM and Newton phases alternate until one meets the tolerance or a limit is hit;
-        // the iteration limit counts the steps of both. A small problem starts with Newton.
+        let mut status = self.phases(&mut run)?;
+        // A run whose iterates overflowed starts again from the cold start, within what is
+        // left of the limits, when something else may succeed: without the warm start (a
+        // hint, not an order: impulses of 1e300 on a contact that needs 10), then with the
+        // external s update (docs/algorithms.md §5: updated every iteration, the De Saxce
+        // shift amplifies a change of u_T by mu, and a pile at mu >= 30 diverges).
+        let (mut warm, mut s_update) = (warm, run.set.s_update);
+        while status == Status::NumericalError {
+            if warm {
+                warm = false;
+            } else if s_update == SUpdate::Internal {
+                s_update = SUpdate::External;
+            } else {
+                break;
+            }
+            // The engine as at the start (handover thresholds a failed Newton phase moved
+            // included), the counts and the clock as they are.
+            run.set = self
+                .settings
+                .engine_settings(&self.resolved, self.dense_newton);
+            run.set.s_update = s_update;
+            self.state.rho = self.rho0;
+            self.form.cold_start(&mut self.state);
+            run.error = f64::INFINITY;
+            run.newton_first = self.newton_first;
+            run.newton_budget = None;
+            status = self.phases(&mut run)?;
+        }
+        Ok(self.finish(status, run))
+    }
+
+    /// ADMM and Newton phases alternate until one meets the tolerance or a limit is hit;
+    /// the iteration limit counts the steps of both. A small problem starts with Newton.
+    fn phases(&mut self, run: &mut Run) -> Result<Status, Error> {
         let mut status = None;
         while status.is_none() {
             if self.resolved.newton != NewtonUse::Alone && !run.newton_first {
-                let (ended, handed_over) = self.admm_phase(&mut run)?;
+                let (ended, handed_over) = self.admm_phase(run)?;
                 status = ended;
                 if !handed_over {
                     break;
@@ -263,9 +295,9 @@ impl CoupledSolver {
                 status = Some(Status::MaxIterations);
                 break;
             }
-            status = self.newton_phase(&mut run)?;
+            status = self.newton_phase(run)?;
         }
-        Ok(self.finish(status.unwrap_or(Status::MaxIterations), run))
+        Ok(status.unwrap_or(Status::MaxIterations))
     }
 
     /// A solve that needs no iteration: no solution (a contact no impulse can satisfy), a

@@ -87,3 +87,63 @@ fn single_contact_local_form_every_variant() {
         }
     }
 }
+
+/// A finite warm start far off the answer (impulses and velocities of 1e300, whose
+/// products overflow) is a hint the solve drops: it ends solved at the exact answer, in
+/// both forms and with every variant, instead of `numerical_error` at the warm start.
+#[test]
+fn an_enormous_warm_start_is_dropped() {
+    let mass = 2.0;
+    let (what, vf, mu) = cases()[2];
+    let expected = exact(mass, vf, mu);
+    let m = CscMatrix::from_dense("M", 3, 3, &[mass, 0.0, 0.0, 0.0, mass, 0.0, 0.0, 0.0, mass])
+        .unwrap();
+    let f = vf.iter().map(|x| mass * x).collect();
+    let global = GlobalProblem::new(m, CscMatrix::identity(3), f, vec![0.0; 3], vec![mu]).unwrap();
+    let w = CscMatrix::from_dense(
+        "W",
+        3,
+        3,
+        &[
+            1.0 / mass,
+            0.0,
+            0.0,
+            0.0,
+            1.0 / mass,
+            0.0,
+            0.0,
+            0.0,
+            1.0 / mass,
+        ],
+    )
+    .unwrap();
+    let local = LocalProblem::new(w, vf.to_vec(), vec![mu]).unwrap();
+    let starts: [([f64; 3], Option<[f64; 3]>); 3] = [
+        ([1e300, 1e300, 0.0], Some([1e300, 0.0, 0.0])),
+        ([-1e300, 0.0, 0.0], None),
+        ([1e300, -1e300, 1e300], Some([-1e300, 1e300, 1e300])),
+    ];
+    for problem in [Problem::Global(global), Problem::Local(local)] {
+        for variant in VARIANT_NAMES.iter().copied().chain(["auto"]) {
+            for (r, v) in &starts {
+                let settings = Settings {
+                    tolerance: 1e-10,
+                    variant: VariantChoice::from_name(variant).unwrap(),
+                    ..Default::default()
+                };
+                let mut solver = Solver::new(problem.clone(), settings).unwrap();
+                solver.warm_start(r, v.as_ref().map(|v| &v[..])).unwrap();
+                let status = solver.solve().unwrap();
+                let tag = format!("{what} with {variant}, warm start {r:?} {v:?}");
+                assert_eq!(status, Status::Solved, "{tag}: {:?}", solver.stats());
+                let got = &solver.solution().r;
+                for k in 0..3 {
+                    assert!(
+                        (got[k] - expected[k]).abs() <= 1e-6 * (1.0 + expected[k].abs()),
+                        "{tag}: r = {got:?}, expected {expected:?}"
+                    );
+                }
+            }
+        }
+    }
+}

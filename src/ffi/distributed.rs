@@ -9,11 +9,11 @@
 //! The communicator is passed as a Fortran handle (`MPI_Fint`, from `MPI_Comm_c2f`), so
 //! that this header needs no `mpi.h`: it works with the MPI the library was built with.
 
-use super::arrays::{check_output, check_ptr, contact_len, input, write_output};
+use super::arrays::{check_output, check_ptr, contact_len, copy, input, write_output};
 use super::panic::{catch, guard};
 use super::result::{
-    cadmm_result, cadmm_status, kind_code, status_code, Failure, FfiResult,
-    CADMM_ERR_INVALID_VALUE, CADMM_ERR_PANIC, CADMM_ERR_UNSUPPORTED,
+    cadmm_result, cadmm_status, kind_code, status_code, Failure, FfiResult, CADMM_ERR_DIMENSION,
+    CADMM_ERR_INVALID_CSC, CADMM_ERR_INVALID_VALUE, CADMM_ERR_PANIC, CADMM_ERR_UNSUPPORTED,
 };
 use super::settings::{cadmm_settings, settings_ref};
 use super::stats::cadmm_stats;
@@ -85,38 +85,64 @@ impl From<RankError> for Failure {
 /// # Safety
 /// The pointers of `part` must be valid for the lengths its counts give.
 unsafe fn read_part(part: &cadmm_rank_part) -> FfiResult<RankProblem> {
-    // SAFETY (every `input` below): valid for the given lengths by the caller's contract.
-    let dofs: Vec<usize> =
-        unsafe { input("part->body_dofs", part.body_dofs, part.n_bodies)? }.to_vec();
+    // SAFETY (every `copy` below): valid for the given lengths by the caller's contract.
+    // Each count is checked against what it sizes before anything is allocated by it, and
+    // every copy is allocated fallibly (OUT_OF_MEMORY, never an abort).
+    let dofs: Vec<usize> = unsafe { copy("part->body_dofs", part.body_dofs, part.n_bodies)? };
+    if let Some(b) = dofs.iter().position(|k| !(1..=12).contains(k)) {
+        return Err(Failure::new(
+            CADMM_ERR_INVALID_VALUE,
+            format!(
+                "part->body_dofs[{b}] = {}: a body has 1 to 12 velocities",
+                dofs[b]
+            ),
+        ));
+    }
+    // At most 144 and 12 per body: no overflow below n_bodies = usize::MAX / 144.
     let too_many = || {
         Failure::new(
-            CADMM_ERR_INVALID_VALUE,
-            "part->body_dofs: a body has 1 to 12 velocities",
+            CADMM_ERR_DIMENSION,
+            format!("part->n_bodies = {} is too large", part.n_bodies),
         )
     };
     let square = dofs
         .iter()
-        .try_fold(0usize, |sum, &k| {
-            k.checked_mul(k).and_then(|kk| sum.checked_add(kk))
-        })
+        .try_fold(0usize, |sum, &k| sum.checked_add(k * k))
         .ok_or_else(too_many)?;
-    let velocities = dofs
-        .iter()
-        .try_fold(0usize, |sum, &k| sum.checked_add(k))
-        .ok_or_else(too_many)?;
+    let velocities = dofs.iter().sum::<usize>();
     let l = contact_len(part.n_contacts)?;
-    let colptr = unsafe { input("part->h_colptr", part.h_colptr, l + 1)? }.to_vec();
-    let entries = *colptr.last().unwrap_or(&0);
+    let columns = l.checked_add(1).ok_or_else(|| {
+        Failure::new(
+            CADMM_ERR_DIMENSION,
+            format!("part->n_contacts = {} is too large", part.n_contacts),
+        )
+    })?;
+    let colptr: Vec<usize> = unsafe { copy("part->h_colptr", part.h_colptr, columns)? };
+    // The entry arrays are as long as the last pointer says: the pointers must start at 0
+    // and never decrease before that length is trusted.
+    if colptr[0] != 0 {
+        return Err(Failure::new(
+            CADMM_ERR_INVALID_CSC,
+            format!("part->h_colptr[0] = {}, expected 0", colptr[0]),
+        ));
+    }
+    if let Some(j) = colptr.windows(2).position(|w| w[1] < w[0]) {
+        return Err(Failure::new(
+            CADMM_ERR_INVALID_CSC,
+            format!("part->h_colptr decreases at column {j}"),
+        ));
+    }
+    let entries = colptr[l];
     Ok(RankProblem {
-        bodies: unsafe { input("part->body_ids", part.body_ids, part.n_bodies)? }.to_vec(),
-        mass: unsafe { input("part->mass", part.mass, square)? }.to_vec(),
-        f: unsafe { input("part->f", part.f, velocities)? }.to_vec(),
+        bodies: unsafe { copy("part->body_ids", part.body_ids, part.n_bodies)? },
+        mass: unsafe { copy("part->mass", part.mass, square)? },
+        f: unsafe { copy("part->f", part.f, velocities)? },
         h_colptr: colptr,
-        h_body: unsafe { input("part->h_body", part.h_body, entries)? }.to_vec(),
-        h_dof: unsafe { input("part->h_dof", part.h_dof, entries)? }.to_vec(),
-        h_values: unsafe { input("part->h_values", part.h_values, entries)? }.to_vec(),
-        w: unsafe { input("part->w", part.w, l)? }.to_vec(),
-        mu: unsafe { input("part->mu", part.mu, part.n_contacts)? }.to_vec(),
+        h_body: unsafe { copy("part->h_body", part.h_body, entries)? },
+        h_dof: unsafe { copy("part->h_dof", part.h_dof, entries)? },
+        h_values: unsafe { copy("part->h_values", part.h_values, entries)? },
+        w: unsafe { copy("part->w", part.w, l)? },
+        mu: unsafe { copy("part->mu", part.mu, part.n_contacts)? },
         dofs,
     })
 }
@@ -371,4 +397,78 @@ pub unsafe extern "C" fn cadmm_distributed_solver_free(sv: *mut cadmm_distribute
             drop(unsafe { Box::from_raw(sv) });
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::ptr::null;
+
+    fn part() -> cadmm_rank_part {
+        cadmm_rank_part {
+            n_bodies: 0,
+            body_ids: null(),
+            body_dofs: null(),
+            mass: null(),
+            f: null(),
+            n_contacts: 0,
+            h_colptr: null(),
+            h_body: null(),
+            h_dof: null(),
+            h_values: null(),
+            w: null(),
+            mu: null(),
+        }
+    }
+
+    fn code(p: &cadmm_rank_part) -> (cadmm_result, String) {
+        // SAFETY: every array of `p` holds what its counts say, or the count is refused
+        // before the array is read (what these tests check).
+        match unsafe { read_part(p) } {
+            Ok(_) => (0, String::new()),
+            Err(f) => (f.code, f.message),
+        }
+    }
+
+    /// Counts that would size an allocation or a read are checked first: a body of 13
+    /// velocities, column pointers that do not start at 0 or decrease (whose last entry
+    /// would size the entry arrays), a contact count whose `3 n + 1` overflows.
+    #[test]
+    fn counts_are_checked_before_they_size_anything() {
+        let (ids, dofs) = ([7u64], [13usize]);
+        let p = cadmm_rank_part {
+            n_bodies: 1,
+            body_ids: ids.as_ptr(),
+            body_dofs: dofs.as_ptr(),
+            ..part()
+        };
+        let (c, m) = code(&p);
+        assert_eq!(c, CADMM_ERR_INVALID_VALUE, "{m}");
+        assert!(m.contains("body_dofs[0] = 13"), "{m}");
+
+        let (w, mu) = ([0.0; 3], [0.5]);
+        for (colptr, says) in [
+            ([1usize, 1, 1, 1], "h_colptr[0] = 1"),
+            ([0, 1_000_000_000_000, 2, 3], "decreases at column 1"),
+        ] {
+            let p = cadmm_rank_part {
+                n_contacts: 1,
+                h_colptr: colptr.as_ptr(),
+                w: w.as_ptr(),
+                mu: mu.as_ptr(),
+                ..part()
+            };
+            let (c, m) = code(&p);
+            assert_eq!(c, CADMM_ERR_INVALID_CSC, "{m}");
+            assert!(m.contains(says), "{m}");
+        }
+
+        let p = cadmm_rank_part {
+            n_contacts: usize::MAX / 3,
+            ..part()
+        };
+        let (c, m) = code(&p);
+        assert_eq!(c, CADMM_ERR_DIMENSION, "{m}");
+        assert!(m.contains("n_contacts"), "{m}");
+    }
 }

@@ -680,10 +680,17 @@ cadmm_result cadmm_settings_set_max_iterations(struct cadmm_settings *s, uint32_
 
 /**
  * Sets the wall-clock limit of one solve in seconds (positive; `INFINITY`, the default,
- * for none). Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (the settings
+ * for none). It bounds `cadmm_solver_solve` only, checked between steps: after every
+ * ADMM iteration, conjugate-gradient iteration and Newton step, and before each island.
+ * A step under way is finished, so a solve can overrun by one step: with the factorized
+ * backend, a refactorization when rho changes or a Newton factorization (tens of
+ * milliseconds on a large problem). `cadmm_solver_new` (analysis, first factorization)
+ * and the updates are outside the limit. A limit that is not reached does not change the
+ * solve: it ends with the same answer, bitwise, as without the limit. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (the settings
  * are unchanged).
  */
-cadmm_result cadmm_settings_set_time_limit(struct cadmm_settings *s, double seconds);
+cadmm_result cadmm_settings_set_time_limit(struct cadmm_settings *s,
+                                           double seconds);
 
 /**
  * Sets the Anderson acceleration memory (0 switches it off; at most 64). Without this

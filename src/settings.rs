@@ -78,7 +78,13 @@ pub struct Settings {
     pub tolerance: f64,
     /// Iteration limit. Default 100000.
     pub max_iterations: usize,
-    /// Wall-clock limit of one solve, seconds. Default: none (infinity).
+    /// Wall-clock limit of one solve, seconds. Default: none (infinity). It bounds the solve
+    /// call only, checked between steps: after every ADMM iteration, conjugate-gradient
+    /// iteration and Newton step, and before each island. A step under way is finished,
+    /// so a solve can overrun by one step: with the factorized backend, a refactorization
+    /// when rho changes or a Newton factorization (tens of milliseconds on a large
+    /// problem). Building the solver (analysis, first factorization) and updating it are
+    /// outside the limit. A limit that is not reached does not change the solve.
     pub time_limit: f64,
     /// ADMM variant. Default `auto`.
     pub variant: VariantChoice,

@@ -543,73 +543,47 @@ impl KeptValues {
     /// Keeps `p`'s values of the fields `given` names (fields `p` lacks are not kept).
     /// Matrix values are kept in the caller's order, as an update takes them.
     pub(crate) fn keep(&mut self, p: ProblemRef<'_>, given: &NewValues) {
-        let (matrices, vectors): ([Option<&CscMatrix>; 9], [Option<&[f64]>; 9]) = match p {
-            ProblemRef::Global(p) => {
-                let j = p.joints.as_ref();
-                (
-                    [
-                        Some(&p.m),
-                        Some(&p.h),
-                        j.map(|j| &j.g),
-                        None,
-                        None,
-                        None,
-                        None,
-                        None,
-                        None,
-                    ],
-                    [
-                        None,
-                        None,
-                        None,
-                        Some(&p.f),
-                        Some(&p.w),
-                        j.map(|j| &j.b[..]),
-                        Some(&p.mu),
-                        None,
-                        None,
-                    ],
-                )
+        let fields = &mut self.fields;
+        for (kept, _) in fields.iter_mut() {
+            *kept = false;
+        }
+        // Field `k` (in `NewValues` order) from a vector or a matrix, when the update names it.
+        let mut vector = |k: usize, named: Option<&[f64]>, x: &[f64]| {
+            if named.is_some() {
+                fields[k].1.clear();
+                fields[k].1.extend_from_slice(x);
+                fields[k].0 = true;
             }
-            ProblemRef::Local(p) => (
-                [None, None, None, None, None, None, None, Some(&p.w), None],
-                [
-                    None,
-                    None,
-                    None,
-                    None,
-                    None,
-                    None,
-                    Some(&p.mu),
-                    None,
-                    Some(&p.q),
-                ],
-            ),
         };
-        let named = [
-            given.m,
-            given.h,
-            given.g,
-            given.f,
-            given.w,
-            given.b,
-            given.mu,
-            given.delassus,
-            given.q,
-        ];
-        for (k, (kept, buffer)) in self.fields.iter_mut().enumerate() {
-            *kept = named[k].is_some() && (matrices[k].is_some() || vectors[k].is_some());
-            if !*kept {
-                continue;
-            }
-            match (matrices[k], vectors[k]) {
-                (Some(a), _) => a.values_in_input_order(buffer),
-                (None, Some(x)) => {
-                    buffer.clear();
-                    buffer.extend_from_slice(x);
+        match p {
+            ProblemRef::Global(p) => {
+                vector(3, given.f, &p.f);
+                vector(4, given.w, &p.w);
+                vector(6, given.mu, &p.mu);
+                if let Some(j) = &p.joints {
+                    vector(5, given.b, &j.b);
                 }
-                (None, None) => {}
             }
+            ProblemRef::Local(p) => {
+                vector(6, given.mu, &p.mu);
+                vector(8, given.q, &p.q);
+            }
+        }
+        let mut matrix = |k: usize, named: Option<&[f64]>, a: &CscMatrix| {
+            if named.is_some() {
+                a.values_in_input_order(&mut fields[k].1);
+                fields[k].0 = true;
+            }
+        };
+        match p {
+            ProblemRef::Global(p) => {
+                matrix(0, given.m, &p.m);
+                matrix(1, given.h, &p.h);
+                if let Some(j) = &p.joints {
+                    matrix(2, given.g, &j.g);
+                }
+            }
+            ProblemRef::Local(p) => matrix(7, given.delassus, &p.w),
         }
     }
 

@@ -569,9 +569,10 @@ fn summary(
         failures += usize::from(!ok);
     };
     if tilted {
-        // The tilted block rocks on an edge: some steps stall short of the tolerance (README,
-        // Limits). What the solver owes there is honesty: a step it calls solved is, and an
-        // unsolved step reports the error its answer has, re-measured on a copy.
+        // The tilted block rocks on an edge: some steps stall short of the tolerance
+        // (docs/limits.md, "A block rocking on an edge"). What the solver owes there is
+        // honesty: a step it calls solved is, and an unsolved step reports the error its
+        // answer has, re-measured on a copy.
         let dishonest = logs
             .iter()
             .filter(|l| l.contacts > 0)

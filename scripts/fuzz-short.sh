@@ -14,7 +14,7 @@ seed=${FUZZ_SEED:-1}
 targets=${FUZZ_TARGETS:-problem_csc c_api fclib_read}
 export LSAN_OPTIONS="suppressions=$PWD/fuzz/lsan.supp:print_suppressions=0"
 # A corrupt file can make libhdf5 ask malloc for about 1e18 bytes; malloc then returns NULL
-# as in production (what libhdf5 does with it is its own: README, Limits). A Rust allocation
+# as in production (what libhdf5 does with it is its own: docs/limits.md). A Rust allocation
 # that fails still aborts, and is reported.
 export ASAN_OPTIONS="allocator_may_return_null=1"
 

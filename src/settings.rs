@@ -11,7 +11,7 @@ use crate::types::Error;
 /// Which ADMM variant to run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum VariantChoice {
-    /// The measured default (see README, "Choosing `auto`").
+    /// The measured default (docs/solver-guide.md, "Choosing `auto`").
     Auto,
     /// One of the twelve named variants.
     Named(Variant),

@@ -229,7 +229,7 @@ fn auto_iteration_counts_follow_the_units() {
 /// the data), and so is the local form under length scaling (it only scales `q`): the
 /// iteration counts stay within 10% of the unscaled case. With friction they do not: the
 /// first De Saxce shift (docs/algorithms.md §3, seed eq. 61) is a fixed velocity, not scaled
-/// with the data (the README's Limits give the figures).
+/// with the data (docs/limits.md gives the figures).
 #[test]
 fn frictionless_unit_scaling_keeps_iteration_counts() {
     let cases = scenes::cases((1, 1, 1));

@@ -82,7 +82,7 @@ fn adaptive_penalties_converge_over_a_wider_tau0_range() {
 
 /// ADMM with a constant penalty above twice the largest eigenvalue finds the leading
 /// eigenvector of D^T D as a dense symmetric eigensolver does; the spectral rule converges
-/// to an eigenvector, usually another one (README, the seed-002 table): the iterate is
+/// to an eigenvector, usually another one (docs/solver-guide.md, the seed-002 table): the iterate is
 /// checked to be one, with an eigenvalue of the eigensolver's.
 #[test]
 fn leading_eigenvector_matches_symmetric_eigen() {

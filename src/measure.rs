@@ -397,18 +397,30 @@ impl GlobalSums {
 
     /// Every process's sums added up: `max_across` takes the largest of each scale over
     /// the processes, then `sum_across` adds the sums of squares expressed at those scales.
+    /// `None` when some process's vectors were not all `finite`: that flag travels with the
+    /// scales, one exchange for both.
     #[cfg(feature = "mpi")]
     pub fn add_across(
         self,
+        finite: bool,
         max_across: impl FnOnce(&mut [f64]),
         sum_across: impl FnOnce(&mut [f64]),
-    ) -> Self {
+    ) -> Option<Self> {
         let parts = self.parts();
-        let mut scales = parts.map(SumSq::scale);
+        let mut scales = [0.0; 8];
+        for (s, part) in scales.iter_mut().zip(&parts) {
+            *s = part.scale();
+        }
+        scales[7] = f64::from(u8::from(!finite));
         max_across(&mut scales);
+        if scales[7] > 0.0 {
+            return None;
+        }
         let mut ssq: [f64; 7] = std::array::from_fn(|k| parts[k].ssq_at(scales[k]));
         sum_across(&mut ssq);
-        Self::from_parts(std::array::from_fn(|k| SumSq::at(scales[k], ssq[k])))
+        Some(Self::from_parts(std::array::from_fn(|k| {
+            SumSq::at(scales[k], ssq[k])
+        })))
     }
 
     /// `||-M v + H r + f|| / max(||f||, ||M v||, ||H r||) + ||r - P_K(r - (u + Phi(u)))|| /

@@ -7,10 +7,8 @@ mod global;
 mod initial_rho;
 mod local;
 
-#[cfg(feature = "mpi")]
-pub(crate) use global::inexact_stop;
-
 pub(crate) use global::GlobalSplitting;
+use global::ProblemSplitting;
 pub(crate) use initial_rho::initial_rho;
 pub(crate) use local::LocalSplitting;
 
@@ -110,7 +108,7 @@ pub(crate) fn contact_form(
     backend: LinearSolver,
 ) -> Result<Box<dyn ContactForm>, Error> {
     Ok(match problem {
-        Problem::Global(g) => Box::new(GlobalSplitting::new(g, backend)?),
+        Problem::Global(g) => Box::new(ProblemSplitting::new(g, backend)?),
         Problem::Local(l) => Box::new(LocalSplitting::new(l)?),
     })
 }
@@ -158,7 +156,7 @@ fn count_rows(active: &[f64]) -> usize {
 
 /// Initial shift (docs/algorithms.md §5): `Phi(1) / (||Phi(1)|| ||A||_F)`, where `A` is `H`
 /// (global) or `W` (local).
-pub(crate) fn initial_shift(mu: &[f64], frobenius: f64, phi: &mut [f64]) {
+fn initial_shift(mu: &[f64], frobenius: f64, phi: &mut [f64]) {
     let norm_mu = mu.iter().map(|m| m * m).sum::<f64>().sqrt();
     initial_shift_of(mu, norm_mu, frobenius, phi);
 }

@@ -195,7 +195,7 @@ impl DistributedSolver {
             .set_rho(self.rho0)
             .map_err(|_| failure(&mut self.split))?;
         let shared_v = parts_v.as_ref().map(|(s, _)| &s[..]);
-        self.split.warm_start(&shared_r, shared_v, &mut self.state);
+        self.split.start_warm(&shared_r, shared_v, &mut self.state);
         let own = match &mut self.own {
             Some(o) => o.warm_start(&own_r, parts_v.as_ref().map(|(_, v)| &v[..])),
             None => Ok(()),
@@ -211,7 +211,7 @@ impl DistributedSolver {
         let t0 = Instant::now();
         if !std::mem::replace(&mut self.warm, false) {
             self.state.rho = self.rho0;
-            self.split.cold_start(&mut self.state);
+            self.split.start_cold(&mut self.state);
         }
         let before = self.split.linear_iterations();
         let exchanged = self.split.exchange_seconds();
@@ -333,7 +333,7 @@ impl DistributedSolver {
     fn restart_from_solutions(&mut self) -> Result<(), RankError> {
         let v = self.split.velocities().to_vec();
         let r = std::mem::take(&mut self.shared_r);
-        self.split.warm_start(&r, Some(&v), &mut self.state);
+        self.split.start_warm(&r, Some(&v), &mut self.state);
         self.shared_r = r;
         let own = match &mut self.own {
             Some(own) => {

@@ -12,6 +12,7 @@ mod gram_product;
 pub mod param_matrix;
 mod pcg;
 mod sparse_factor;
+pub(crate) mod velocity;
 mod workers;
 
 pub use block_diagonal::BlockDiagonal;

@@ -340,13 +340,8 @@ impl CoupledSolver {
     fn admm_phase(&mut self, run: &mut Run) -> Result<(Option<Status>, bool), Error> {
         run.set.max_iterations = self.iterations_left(&run.stats);
         let out = admm::run(self.form.as_mut(), &mut self.state, &run.set, run.t0)?;
-        let stats = &mut run.stats;
-        stats.iterations += out.iterations;
-        stats.primal_residual = out.primal;
-        stats.dual_residual = out.dual;
-        stats.anderson_accepted += out.aa_accepted;
-        stats.anderson_rejected += out.aa_rejected;
-        let offset = stats.iterations - out.iterations;
+        out.add_to(&mut run.stats);
+        let offset = run.stats.iterations - out.iterations;
         self.trace.extend(out.trace.into_iter().map(|mut t| {
             t.iteration += offset;
             t

@@ -42,6 +42,7 @@ pub mod measure;
 /// Semismooth Newton (Alart-Curnier) phase.
 mod newton;
 mod problem;
+mod refine;
 mod scene;
 mod settings;
 mod small_island;

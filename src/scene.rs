@@ -6,10 +6,11 @@ use crate::csc::norm2;
 use crate::islands::{contact_rows, gather, positions, Part, Partition, EVERY_FIELD};
 use crate::measure::{solution_error, MeasureWork, Scales};
 use crate::problem::{check_len, KeptValues, NewValues, Problem};
+use crate::refine::{most_severe, refine_rounds, SolveInParts};
 use crate::settings::{NewtonUse, Settings};
 use crate::small_island::SmallWork;
 use crate::strategy::{PartSolver, SolveContext};
-use crate::tuning::{ISLAND_ROUNDS, ISLAND_TIGHTENING};
+use crate::tuning::ISLAND_ROUNDS;
 use crate::types::{Error, Solution, Status};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -172,63 +173,41 @@ impl Scene {
         out: &mut Solution,
     ) -> Result<(Status, f64), Error> {
         let tol = settings.tolerance;
-        let mut pending: Vec<bool> = vec![true; self.parts.len()];
         for p in &mut self.parts {
             p.tolerance = tol;
             p.reset();
             p.set_floors(self.known_scales);
         }
-        let mut error = f64::INFINITY;
-        // With a bodiless contact that approaches, no round can meet the tolerance.
-        let rounds = if self.bodiless_blocked() {
-            1
-        } else {
-            ISLAND_ROUNDS
+        let pending = vec![true; self.parts.len()];
+        let mut rounds = SceneRounds {
+            scene: self,
+            settings,
+            t0,
+            out,
+            pending,
         };
-        for round in 0..rounds {
-            self.solve_parts(&pending, settings, t0);
-            if let Some(Err(e)) = self.parts.iter().map(|p| &p.outcome).find(|o| o.is_err()) {
-                return Err(e.clone());
-            }
-            error = self.whole_error(out);
-            let all_solved = self
-                .parts
-                .iter()
-                .all(|p| matches!(p.outcome, Ok(Status::Solved)));
-            if error <= tol || !all_solved || round + 1 == rounds {
-                break;
-            }
-            let scales = self.measure.scales;
-            let factor = (tol / error).min(ISLAND_TIGHTENING);
-            for (p, again) in self.parts.iter_mut().zip(&mut pending) {
-                // The contact-free part is solved exactly already.
-                *again = !p.part.contacts.is_empty();
-                if *again {
-                    p.tolerance *= factor;
-                    p.set_floors(scales);
-                    let s = p.solution(&self.whole, &self.row_of);
-                    p.r.copy_from_slice(&s.r);
-                    p.v.copy_from_slice(&s.v);
-                    p.warm_start(!s.v.is_empty())?;
-                }
+        let (status, error) = refine_rounds(&mut rounds, tol, ISLAND_ROUNDS)?;
+        self.slowest = (0..self.parts.len()).max_by_key(|&k| self.parts[k].stats.iterations);
+        Ok((status, error))
+    }
+
+    /// Multiplies the tolerance of every part with contacts by `factor`, sets its floors at
+    /// the last whole measure's scales and starts it warm from the assembled solution;
+    /// `pending` marks those parts (the contact-free part is solved exactly already).
+    fn tighten(&mut self, factor: f64, pending: &mut [bool]) -> Result<(), Error> {
+        let scales = self.measure.scales;
+        for (p, again) in self.parts.iter_mut().zip(pending) {
+            *again = !p.part.contacts.is_empty();
+            if *again {
+                p.tolerance *= factor;
+                p.set_floors(scales);
+                let s = p.solution(&self.whole, &self.row_of);
+                p.r.copy_from_slice(&s.r);
+                p.v.copy_from_slice(&s.v);
+                p.warm_start(!s.v.is_empty())?;
             }
         }
-        self.slowest = (0..self.parts.len()).max_by_key(|&k| self.parts[k].stats.iterations);
-        let infeasible = self.bodiless_blocked()
-            || self
-                .parts
-                .iter()
-                .any(|p| p.stats.status == Status::Infeasible);
-        let status = if infeasible {
-            Status::Infeasible
-        } else if error <= tol {
-            Status::Solved
-        } else if let Some(p) = self.parts.iter().find(|p| p.stats.status != Status::Solved) {
-            p.stats.status
-        } else {
-            Status::MaxIterations
-        };
-        Ok((status, error))
+        Ok(())
     }
 
     /// Solves the pending parts, on `threads` scoped threads when several are pending. The
@@ -307,5 +286,40 @@ impl Scene {
     fn whole_error(&mut self, out: &mut Solution) -> f64 {
         self.assemble(out);
         solution_error(&self.whole, out, &mut self.measure)
+    }
+}
+
+/// One solve of a scene's parts, as the refine rounds drive it.
+struct SceneRounds<'a> {
+    scene: &'a mut Scene,
+    settings: &'a Settings,
+    t0: Instant,
+    out: &'a mut Solution,
+    /// The parts the next round solves.
+    pending: Vec<bool>,
+}
+
+impl SolveInParts for SceneRounds<'_> {
+    type Error = Error;
+
+    fn solve_parts(&mut self) -> Result<Option<Status>, Error> {
+        let scene = &mut *self.scene;
+        scene.solve_parts(&self.pending, self.settings, self.t0);
+        if let Some(Err(e)) = scene.parts.iter().map(|p| &p.outcome).find(|o| o.is_err()) {
+            return Err(e.clone());
+        }
+        // With a bodiless contact that approaches, the problem has no solution and no
+        // round can meet the tolerance.
+        let blocked = scene.bodiless_blocked().then_some(Status::Infeasible);
+        let statuses = scene.parts.iter().map(|p| p.outcome.clone().ok());
+        Ok(statuses.fold(blocked, most_severe))
+    }
+
+    fn whole_error(&mut self) -> Result<f64, Error> {
+        Ok(self.scene.whole_error(self.out))
+    }
+
+    fn tighten(&mut self, factor: f64) -> Result<(), Error> {
+        self.scene.tighten(factor, &mut self.pending)
     }
 }

@@ -203,15 +203,7 @@ impl Solver {
                     ..Stats::default()
                 };
                 for p in parts {
-                    stats.refactorizations += p.refactorizations;
-                    stats.rows += p.rows;
-                    stats.anderson_accepted += p.anderson_accepted;
-                    stats.anderson_rejected += p.anderson_rejected;
-                    stats.newton_iterations += p.newton_iterations;
-                    stats.newton_factorizations += p.newton_factorizations;
-                    stats.newton_phases += p.newton_phases;
-                    stats.newton_fallbacks += p.newton_fallbacks;
-                    stats.linear_iterations += p.linear_iterations;
+                    stats.add_part(p);
                 }
                 stats.failed_island = (status != Status::Solved)
                     .then(|| {

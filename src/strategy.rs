@@ -450,18 +450,5 @@ fn add_solve(
         seconds: t.seconds + started,
         ..*t
     }));
-    *total = Stats {
-        iterations: total.iterations + s.iterations,
-        refactorizations: s.refactorizations,
-        anderson_accepted: total.anderson_accepted + s.anderson_accepted,
-        anderson_rejected: total.anderson_rejected + s.anderson_rejected,
-        newton_iterations: total.newton_iterations + s.newton_iterations,
-        newton_factorizations: total.newton_factorizations + s.newton_factorizations,
-        newton_phases: total.newton_phases + s.newton_phases,
-        newton_fallbacks: total.newton_fallbacks + s.newton_fallbacks,
-        linear_iterations: total.linear_iterations + s.linear_iterations,
-        solve_seconds: total.solve_seconds + s.solve_seconds,
-        setup_seconds: total.setup_seconds,
-        ..*s
-    };
+    total.add_solve(s);
 }

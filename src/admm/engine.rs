@@ -9,7 +9,7 @@ use super::handover::{Handover, HandoverMonitor};
 use super::rho_rule::{IterationView, RhoAdapter};
 use super::{SUpdate, Splitting, Variant};
 use crate::csc::dot;
-use crate::types::{Error, Status};
+use crate::types::{Error, Stats, Status};
 use crate::types::{Phase, TracePoint};
 use std::time::{Duration, Instant};
 
@@ -82,6 +82,18 @@ pub struct EngineOutcome {
     /// At a handover, the steps the Newton phase may take (`None`: no limit), see
     /// [`Handover`].
     pub newton_budget: Option<usize>,
+}
+
+impl EngineOutcome {
+    /// Adds this run to a solve's statistics: its iterations and Anderson counts add up,
+    /// its final residuals replace the last run's.
+    pub fn add_to(&self, stats: &mut Stats) {
+        stats.iterations += self.iterations;
+        stats.primal_residual = self.primal;
+        stats.dual_residual = self.dual;
+        stats.anderson_accepted += self.aa_accepted;
+        stats.anderson_rejected += self.aa_rejected;
+    }
 }
 
 /// External s update's first inner tolerance: loose, for a guessed shift (docs/algorithms.md §5).

@@ -37,6 +37,18 @@ fn positive(rho: f64) -> f64 {
     }
 }
 
+/// The first rho under `rule` of a problem shared over processes, where Acary's ratio
+/// (`acary`, computed across them) stands in for the spectral rules (1 when it
+/// degenerates, e.g. H = 0).
+#[cfg(feature = "mpi")]
+pub(crate) fn shared_initial_rho(rule: InitialRho, acary: impl FnOnce() -> f64) -> f64 {
+    positive(match rule {
+        InitialRho::Normal => 1.0,
+        InitialRho::Given(rho) => rho,
+        _ => acary(),
+    })
+}
+
 /// The first rho of a problem under a rule (1 when the rule degenerates, e.g. H = 0).
 pub fn initial_rho(rule: InitialRho, p: &Problem) -> Result<f64, Error> {
     Ok(positive(match (rule, p) {

@@ -10,6 +10,8 @@ mod local;
 pub(crate) use global::GlobalSplitting;
 use global::ProblemSplitting;
 pub(crate) use initial_rho::initial_rho;
+#[cfg(feature = "mpi")]
+pub(crate) use initial_rho::shared_initial_rho;
 pub(crate) use local::LocalSplitting;
 
 use crate::admm::{EngineState, Splitting};

@@ -15,11 +15,13 @@ use super::islands::{RankSplit, Slot};
 use super::problem::{RankError, RankProblem};
 use super::splitting::DistributedSplitting;
 use crate::admm::{run, EngineSettings, EngineState, Splitting};
+use crate::contact::shared_initial_rho;
 use crate::measure::{Floors, GlobalTerms, Scales};
 use crate::problem::{check_len, GlobalProblem, Problem};
+use crate::refine::{most_severe, refine_rounds, severity, status_of, SolveInParts};
 use crate::settings::{InitialRho, LinearSolver, NewtonUse, Resolved, Settings};
 use crate::solver::Solver;
-use crate::tuning::{ISLAND_ROUNDS, ISLAND_TIGHTENING, ROUND_OFF_MARGIN};
+use crate::tuning::{ISLAND_ROUNDS, ROUND_OFF_MARGIN};
 use crate::types::{ErrorKind, Stats, Status, TracePoint};
 use mpi::topology::{Communicator, SimpleCommunicator};
 use std::time::Instant;
@@ -106,16 +108,7 @@ impl DistributedSolver {
         ];
         split.sum_across(&mut counts);
         let resolved = settings.resolved();
-        let rho0 = match resolved.initial_rho {
-            InitialRho::Normal => 1.0,
-            InitialRho::Given(rho) => rho,
-            _ => split.acary_rho(),
-        };
-        let rho0 = if rho0.is_finite() && rho0 > 0.0 {
-            rho0
-        } else {
-            1.0 // H = 0: any penalty will do
-        };
+        let rho0 = shared_initial_rho(resolved.initial_rho, || split.acary_rho());
         split.set_rho(rho0).map_err(|_| failure(&mut split))?;
         let l = split.dim();
         let stats = Stats {
@@ -216,31 +209,14 @@ impl DistributedSolver {
         let before = self.split.linear_iterations();
         let exchanged = self.split.exchange_seconds();
         let tol = self.settings.tolerance;
-        let mut part_tol = tol;
-        let mut shared = Stats::default();
-        let (mut error, mut code) = (f64::INFINITY, 0.0);
-        for round in 0..ISLAND_ROUNDS {
-            let shared_status = self.solve_shared(part_tol, t0, &mut shared)?;
-            let own_status = self.solve_own(part_tol, t0)?;
-            let worst = [shared_status, own_status]
-                .into_iter()
-                .map(severity)
-                .fold(0.0, f64::max);
-            code = self.split.max_across(worst);
-            error = self.whole_error();
-            if error <= tol || code > 0.0 || round + 1 == ISLAND_ROUNDS {
-                break;
-            }
-            part_tol *= (tol / error).min(ISLAND_TIGHTENING);
-            self.restart_from_solutions()?;
-        }
-        let status = if code == severity(Some(Status::Infeasible)) {
-            Status::Infeasible
-        } else if error <= tol {
-            Status::Solved
-        } else {
-            status_of(code).unwrap_or(Status::MaxIterations)
+        let mut rounds = RankRounds {
+            solver: self,
+            tolerance: tol,
+            t0,
+            shared: Stats::default(),
         };
+        let (status, error) = refine_rounds(&mut rounds, tol, ISLAND_ROUNDS)?;
+        let shared = rounds.shared;
         self.assemble();
         self.collect_stats(status, error, shared, before, t0);
         self.exchange_seconds = self.split.exchange_seconds() - exchanged;
@@ -270,11 +246,7 @@ impl DistributedSolver {
             .map_err(|_| failure(&mut self.split))?;
         self.split
             .write_solution(&self.state, &mut self.shared_r, &mut self.shared_u);
-        stats.iterations += out.iterations;
-        stats.anderson_accepted += out.aa_accepted;
-        stats.anderson_rejected += out.aa_rejected;
-        stats.primal_residual = out.primal;
-        stats.dual_residual = out.dual;
+        out.add_to(stats);
         self.trace = out.trace;
         Ok(Some(out.status.unwrap_or(Status::MaxIterations)))
     }
@@ -387,42 +359,31 @@ impl DistributedSolver {
         let iterations = self
             .split
             .max_across(shared.iterations.max(own.iterations) as f64);
-        let mut totals = [
-            own.linear_iterations,
-            own.newton_iterations,
-            own.newton_factorizations,
-            own.newton_phases,
-            own.newton_fallbacks,
-            own.refactorizations,
-            own.anderson_accepted,
-            own.anderson_rejected,
-            own.rows + self.state.y.len(),
-        ]
-        .map(|k| k as f64);
+        // This process's own islands and its rows of the shared part, added up over the
+        // processes; the shared part's ADMM counts and CG iterations are every process's.
+        let mine = Stats {
+            rows: own.rows + self.state.y.len(),
+            ..*own
+        };
+        let mut totals = mine.part_counts().map(|k| k as f64);
         self.split.sum_across(&mut totals);
-        let [linear, newton_iterations, newton_factorizations, newton_phases, newton_fallbacks, refactorizations, accepted, rejected, rows] =
-            totals.map(|k| k as usize);
-        self.stats = Stats {
+        let mut stats = Stats {
             status,
             iterations: iterations as usize,
             error,
             primal_residual: shared.primal_residual,
             dual_residual: shared.dual_residual,
             rho: self.state.rho,
-            anderson_accepted: shared.anderson_accepted + accepted,
-            anderson_rejected: shared.anderson_rejected + rejected,
             setup_seconds: self.stats.setup_seconds,
-            rows,
             islands: self.own_islands + usize::from(self.shared_contacts > 0),
             solve_seconds: t0.elapsed().as_secs_f64(),
-            linear_iterations: self.split.linear_iterations() - linear_before + linear,
-            newton_iterations,
-            newton_factorizations,
-            newton_phases,
-            newton_fallbacks,
-            refactorizations,
             ..Default::default()
         };
+        stats.set_part_counts(totals.map(|k| k as usize));
+        stats.anderson_accepted += shared.anderson_accepted;
+        stats.anderson_rejected += shared.anderson_rejected;
+        stats.linear_iterations += self.split.linear_iterations() - linear_before;
+        self.stats = stats;
     }
 
     /// Impulses of this process's contacts (3 per contact, normal first).
@@ -488,32 +449,6 @@ impl DistributedSolver {
     pub fn rank(&self) -> usize {
         self.rank
     }
-}
-
-/// A status's rank among the ways a solve can stop short (0: solved, or nothing ran);
-/// every process takes the largest.
-fn severity(status: Option<Status>) -> f64 {
-    match status {
-        None | Some(Status::Solved) | Some(Status::Unsolved) => 0.0,
-        Some(Status::MaxIterations) => 1.0,
-        Some(Status::TimeLimit) => 2.0,
-        Some(Status::NumericalError) => 3.0,
-        Some(Status::Stalled) => 4.0,
-        Some(Status::Infeasible) => 5.0,
-    }
-}
-
-/// The status of a [`severity`] above 0.
-fn status_of(code: f64) -> Option<Status> {
-    [
-        Status::MaxIterations,
-        Status::TimeLimit,
-        Status::NumericalError,
-        Status::Stalled,
-        Status::Infeasible,
-    ]
-    .into_iter()
-    .find(|&s| severity(Some(s)) == code)
 }
 
 /// Whether the distributed solve does what `settings` ask.
@@ -606,4 +541,40 @@ fn failure(split: &mut DistributedSplitting) -> RankError {
         kind: ErrorKind::NotPositiveDefinite,
         message: "the solve failed".into(),
     })
+}
+
+/// One solve of the shared part and the processes' own islands, as the refine rounds drive
+/// it (a collective call, every process in step).
+struct RankRounds<'a> {
+    solver: &'a mut DistributedSolver,
+    /// The parts' tolerance this round.
+    tolerance: f64,
+    t0: Instant,
+    /// The shared part's statistics over the rounds.
+    shared: Stats,
+}
+
+impl SolveInParts for RankRounds<'_> {
+    type Error = RankError;
+
+    fn solve_parts(&mut self) -> Result<Option<Status>, RankError> {
+        let (tol, t0) = (self.tolerance, self.t0);
+        let shared = self.solver.solve_shared(tol, t0, &mut self.shared)?;
+        let own = self.solver.solve_own(tol, t0)?;
+        // Every process learns the most severe status of any.
+        let code = self
+            .solver
+            .split
+            .max_across(f64::from(severity(most_severe(shared, own))));
+        Ok(status_of(code as u8))
+    }
+
+    fn whole_error(&mut self) -> Result<f64, RankError> {
+        Ok(self.solver.whole_error())
+    }
+
+    fn tighten(&mut self, factor: f64) -> Result<(), RankError> {
+        self.tolerance *= factor;
+        self.solver.restart_from_solutions()
+    }
 }

@@ -77,6 +77,65 @@ impl Default for Stats {
     }
 }
 
+impl Stats {
+    /// The counts that add up over the parts of a solve (islands, processes):
+    /// factorizations, rows, Anderson, Newton and conjugate-gradient counts.
+    pub(crate) fn part_counts(&self) -> [usize; 9] {
+        [
+            self.refactorizations,
+            self.rows,
+            self.anderson_accepted,
+            self.anderson_rejected,
+            self.newton_iterations,
+            self.newton_factorizations,
+            self.newton_phases,
+            self.newton_fallbacks,
+            self.linear_iterations,
+        ]
+    }
+
+    /// Sets the counts [`Stats::part_counts`] lists.
+    pub(crate) fn set_part_counts(&mut self, counts: [usize; 9]) {
+        [
+            self.refactorizations,
+            self.rows,
+            self.anderson_accepted,
+            self.anderson_rejected,
+            self.newton_iterations,
+            self.newton_factorizations,
+            self.newton_phases,
+            self.newton_fallbacks,
+            self.linear_iterations,
+        ] = counts;
+    }
+
+    /// Adds the counts of a part of the solve (an island) to these.
+    pub(crate) fn add_part(&mut self, part: &Stats) {
+        let mut counts = self.part_counts();
+        for (c, p) in counts.iter_mut().zip(part.part_counts()) {
+            *c += p;
+        }
+        self.set_part_counts(counts);
+    }
+
+    /// Adds a later solve of the same part: its iterations, work and time add up; the
+    /// counters its solver keeps over its life (factorizations, rows), the setup time and
+    /// the final values are the later solve's.
+    pub(crate) fn add_solve(&mut self, later: &Stats) {
+        let mut next = Stats {
+            iterations: self.iterations + later.iterations,
+            solve_seconds: self.solve_seconds + later.solve_seconds,
+            setup_seconds: self.setup_seconds,
+            ..*later
+        };
+        let [refactorizations, rows, ..] = later.part_counts();
+        next.add_part(self);
+        next.refactorizations = refactorizations;
+        next.rows = rows;
+        *self = next;
+    }
+}
+
 /// Which phase of the solve an iteration belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Phase {

@@ -3,8 +3,8 @@
 # cmake and pkg-config (C/CMake side), HDF5 (FCLib files), SuiteSparse and Eigen (the C
 # reference-solve tests), Bullet and ODE (the engine integrations), valgrind (memory checks of the C tests), Siconos numerics (the
 # peer the benchmarks compare against), a font for the benchmark plots, matplotlib for the
-# integrations' trace plots (integrations/*/plot_trace.py) and the Python
-# packages of the error checker.
+# integrations' trace plots (integrations/*/plot_trace.py), the Python
+# packages of the error checker, and mdBook for the docs/ book.
 set -euo pipefail
 
 debs=(cmake pkg-config libhdf5-dev libsuitesparse-dev libeigen3-dev valgrind fonts-dejavu-core
@@ -24,4 +24,9 @@ fi
 # The first python3 on PATH runs ../shared/tools/fc_error.py in the tests.
 if ! python3 -c "import numpy, scipy, h5py" 2>/dev/null; then
   python3 -m pip install --quiet numpy scipy h5py
+fi
+# mdBook builds the docs/ book in .ci/run: built once from crates.io (about 2 minutes on
+# 2 cores) and kept in ~/.cargo/bin; without the web server, which the build does not use.
+if ! command -v mdbook >/dev/null && [[ ! -x ${CARGO_HOME:-$HOME/.cargo}/bin/mdbook ]]; then
+  cargo install mdbook --locked --version 0.4.52 --no-default-features --features search
 fi

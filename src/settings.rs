@@ -2,8 +2,8 @@
 
 use crate::admm::{EngineSettings, Handover, SUpdate, Variant};
 use crate::tuning::{
-    ERROR_CHECK_INTERVAL, HANDOVER_ERROR, HANDOVER_STALL_CHECKS, NEWTON_BUDGET,
-    NEWTON_DENSE_STEP_ITERATIONS, NEWTON_EXPECTED_STEPS, NEWTON_RESCUE_STEPS,
+    ANDERSON_MEMORY_MAX, ERROR_CHECK_INTERVAL, HANDOVER_ERROR, HANDOVER_STALL_CHECKS,
+    NEWTON_BUDGET, NEWTON_DENSE_STEP_ITERATIONS, NEWTON_EXPECTED_STEPS, NEWTON_RESCUE_STEPS,
     NEWTON_STEP_ITERATIONS, RESIDUAL_EPS_ABS, RESIDUAL_EPS_ABS_FROM, RHO_RANGE,
 };
 use crate::types::Error;
@@ -204,8 +204,11 @@ impl Settings {
             return bad("anderson_interval", "must be at least 1".into());
         }
         if let Some(m) = self.anderson {
-            if m > 64 {
-                return bad("anderson", format!("memory must be at most 64, got {m}"));
+            if m > ANDERSON_MEMORY_MAX {
+                return bad(
+                    "anderson",
+                    format!("memory must be at most {ANDERSON_MEMORY_MAX}, got {m}"),
+                );
             }
         }
         Ok(())

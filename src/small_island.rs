@@ -25,12 +25,12 @@ use std::time::{Duration, Instant};
 /// Where each piece of an island's data sits in its one array (`n` velocities, `m = 3 nc`
 /// contact rows; a local island has `n = 0`).
 #[derive(Debug, Clone, Copy)]
-struct Layout {
+struct DataLayout {
     n: usize,
     m: usize,
 }
 
-impl Layout {
+impl DataLayout {
     fn len(&self) -> usize {
         self.ranges()[4].end
     }
@@ -67,7 +67,7 @@ pub(crate) struct Site<'a> {
 }
 
 impl<'a> Data<'a> {
-    fn new(layout: Layout, data: &'a [f64], at: Site<'a>) -> Self {
+    fn new(layout: DataLayout, data: &'a [f64], at: Site<'a>) -> Self {
         let [w, q, mu, minv_h, minv_f] = layout.ranges().map(|r| &data[r]);
         Self {
             w,
@@ -157,7 +157,7 @@ fn scatter_columns(
 
 /// The Newton solver and the problem it runs on for islands of one size: each island's
 /// values are copied in before its solve.
-struct Sized {
+struct SizedNewton {
     local: LocalProblem,
     newton: LocalNewton,
     measure: MeasureWork,
@@ -167,7 +167,7 @@ struct Sized {
 #[derive(Default)]
 pub(crate) struct SmallWork {
     /// By number of contacts.
-    sized: Vec<Option<Box<Sized>>>,
+    sized: Vec<Option<Box<SizedNewton>>>,
     /// The island's share of f, and the measure's products.
     f: Vec<f64>,
     mv: Vec<f64>,
@@ -198,7 +198,10 @@ impl SmallWork {
 
     /// The solver for islands of `nc` contacts out of `sized`, built on first use (on a
     /// dense pattern, so that any island of that size fits it).
-    fn sized(sized: &mut Vec<Option<Box<Sized>>>, nc: usize) -> Result<&mut Box<Sized>, Error> {
+    fn sized(
+        sized: &mut Vec<Option<Box<SizedNewton>>>,
+        nc: usize,
+    ) -> Result<&mut Box<SizedNewton>, Error> {
         if sized.len() <= nc {
             sized.resize_with(nc + 1, || None);
         }
@@ -214,7 +217,7 @@ impl SmallWork {
             let local = LocalProblem::new(w, vec![0.0; m], vec![0.0; nc])?;
             let newton = LocalNewton::new(&local)?;
             let measure = MeasureWork::local(&local);
-            sized[nc] = Some(Box::new(Sized {
+            sized[nc] = Some(Box::new(SizedNewton {
                 local,
                 newton,
                 measure,
@@ -226,7 +229,7 @@ impl SmallWork {
 
 /// One small island: its dense data and its iterate.
 pub(crate) struct SmallIsland {
-    layout: Layout,
+    layout: DataLayout,
     global: bool,
     data: Vec<f64>,
     /// The iterate: impulses, and the velocities they give (global form).
@@ -260,7 +263,7 @@ impl SmallIsland {
             return Ok(None);
         }
         let global = matches!(whole, Problem::Global(_));
-        let layout = Layout {
+        let layout = DataLayout {
             n: if global { n } else { 0 },
             m: 3 * nc,
         };
@@ -303,7 +306,7 @@ impl SmallIsland {
         work: &mut SmallWork,
         need_symmetric: bool,
     ) -> Result<bool, Error> {
-        let Layout { n, m } = self.layout;
+        let DataLayout { n, m } = self.layout;
         let [w, q, mu, minv_h, minv_f] = self.layout.ranges();
         let (part, row_of) = (at.part, at.row_of);
         let d = &mut self.data;
@@ -373,12 +376,12 @@ impl SmallIsland {
         done
     }
 
-    /// Sets the tolerance, the time limit and the Newton steps of the next solves.
     /// Records the Newton phase as a trace point, or not.
     pub(crate) fn set_trace(&mut self, trace: bool) {
         self.trace = trace;
     }
 
+    /// Sets the tolerance, the time limit and the Newton steps of the next solves.
     pub(crate) fn set_limits(&mut self, tolerance: f64, time_limit: f64, max_steps: usize) {
         self.tolerance = tolerance;
         self.time_limit = time_limit;
@@ -409,7 +412,7 @@ impl SmallIsland {
         self.warm = false;
         let deadline =
             t0.checked_add(Duration::try_from_secs_f64(self.time_limit).unwrap_or(Duration::MAX));
-        let Layout { n, m } = self.layout;
+        let DataLayout { n, m } = self.layout;
         let data = Data::new(self.layout, &self.data, at);
         work.size_for(&data, self.global, n, m);
         let SmallWork {
@@ -427,7 +430,7 @@ impl SmallIsland {
         s.local.q.copy_from_slice(data.q);
         s.local.mu.copy_from_slice(data.mu);
         s.newton.take_values(&s.local);
-        let Sized {
+        let SizedNewton {
             local,
             newton,
             measure,

@@ -252,3 +252,11 @@ pub const SHARED_ROWS_MAX_STORED: f64 = 1.5;
 /// its pyramid's side faces 5 mm apart, replayed, took ADMM alone 31 836 iterations with
 /// them against 8 416 with them removed.
 pub const SCREEN_RATIO: f64 = 1e-3;
+
+// Limits of the settings.
+
+/// Most Anderson memory a setting may ask for: a bound, not a tuned optimum (`auto` uses
+/// 5). The history keeps `2 m` vectors of twice the constraint space's dimension and its
+/// solve is an `m x m` system each iteration, so the bound caps the memory and the work a
+/// setting can ask for.
+pub const ANDERSON_MEMORY_MAX: usize = 64;

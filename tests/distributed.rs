@@ -4,9 +4,8 @@
 //! the independent error measure of `common` on the whole problem, assembled here from
 //! what each process wrote.
 //!
-//! Each test runs this binary again under `mpirun --oversubscribe` (the machine may have
-//! fewer cores than processes, inside a `timeout`: a hang fails the test), where the
-//! environment variable [`CHILD`] makes it the work of one process.
+//! Each test runs this binary again on several processes (`cadmm::distributed::mpirun`),
+//! each doing the work of one process.
 #![cfg(feature = "mpi")]
 
 mod common;
@@ -17,10 +16,9 @@ mod scenes;
 use cadmm::distributed::{DistributedSolver, RankProblem};
 use cadmm::{GlobalProblem, LinearSolver, Problem, Settings, Solver, Status};
 use mpi::traits::Communicator;
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-const CHILD: &str = "CADMM_MPI_CHILD";
 /// Where a child writes its answer, and which pile it solves.
 const OUT: &str = "CADMM_MPI_OUT";
 const PILE: &str = "CADMM_MPI_PILE";
@@ -87,28 +85,12 @@ fn settings() -> Settings {
     }
 }
 
-/// Runs this binary's test `name` on `np` processes, writing into `out`; their output.
+/// Runs this binary's test `name` on `np` processes, solving `pile` and writing into
+/// `out`; their output.
 fn mpirun(name: &str, np: usize, pile: &str, out: &Path) -> String {
     std::fs::create_dir_all(out).unwrap();
-    let run = Command::new("timeout")
-        .args(["300", "mpirun", "--oversubscribe", "-np", &np.to_string()])
-        .arg(std::env::current_exe().expect("the test binary"))
-        .args([name, "--exact", "--nocapture", "--test-threads", "1"])
-        .env(CHILD, "1")
-        .env(OUT, out)
-        .env(PILE, pile)
-        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-        .output()
-        .expect("mpirun runs (Debian: openmpi-bin)");
-    let stdout = String::from_utf8_lossy(&run.stdout).into_owned();
-    assert!(
-        run.status.success(),
-        "mpirun -np {np} {name}: {:?}\n{stdout}\n{}",
-        run.status,
-        String::from_utf8_lossy(&run.stderr)
-    );
-    stdout
+    let env = [(OUT, out.as_os_str()), (PILE, OsStr::new(pile))];
+    cadmm::distributed::mpirun::run(name, np, &env)
 }
 
 fn scratch(tag: &str) -> PathBuf {
@@ -191,7 +173,7 @@ fn norm(x: &[f64]) -> f64 {
 #[test]
 fn piles_split_into_slabs_solve_as_one_process() {
     let name = "piles_split_into_slabs_solve_as_one_process";
-    if std::env::var_os(CHILD).is_some() {
+    if cadmm::distributed::mpirun::is_child() {
         return child();
     }
     for kind in ["lattice", "irregular", "islands"] {
@@ -311,7 +293,7 @@ fn child() {
 #[test]
 fn settings_that_differ_between_processes_are_refused() {
     let name = "settings_that_differ_between_processes_are_refused";
-    if std::env::var_os(CHILD).is_some() {
+    if cadmm::distributed::mpirun::is_child() {
         return settings_child();
     }
     for case in ["tolerance", "max_iterations", "variant", "islands"] {

@@ -3,8 +3,7 @@
 //! Anderson point under its safeguard (§7; the extrapolation itself is in `anderson.rs`).
 
 use super::anderson::Anderson;
-use super::engine::IterationSums;
-use super::{EngineSettings, Relaxation};
+use super::Relaxation;
 
 /// Restart's eta: momentum needs this residual decrease (Goldstein et al., docs/algorithms.md §6.4).
 const RESTART_ETA: f64 = 0.999;
@@ -35,30 +34,32 @@ pub(super) enum Accelerator {
 }
 
 impl Accelerator {
-    /// The settings' Anderson acceleration when on (it replaces the relaxation then), else
-    /// their variant's relaxation, for a loop starting from `(y0, zeta0)`.
-    pub(super) fn new(set: &EngineSettings, y0: &[f64], zeta0: &[f64]) -> Self {
-        if set.anderson > 0 {
-            let interval = set.anderson_interval;
-            return Self::Anderson(Safeguarded::new(set.anderson, interval, y0.len()));
+    /// Anderson acceleration of memory `anderson`, tried every `interval` iterations, when
+    /// on (it replaces the relaxation then), else `relaxation`, for a loop starting from
+    /// `(y0, zeta0)`.
+    pub(super) fn new(
+        anderson: usize,
+        interval: usize,
+        relaxation: Relaxation,
+        y0: &[f64],
+        zeta0: &[f64],
+    ) -> Self {
+        if anderson > 0 {
+            return Self::Anderson(Safeguarded::new(anderson, interval, y0.len()));
         }
-        match set.variant.relaxation {
+        match relaxation {
             Relaxation::None => Self::Plain,
             Relaxation::Nesterov => Self::Nesterov(Nesterov::new(false, y0, zeta0)),
             Relaxation::NesterovRestart => Self::Nesterov(Nesterov::new(true, y0, zeta0)),
         }
     }
 
-    /// The safeguard, from the iteration's squared primal residual and `||y+ - y_in||^2`.
-    /// On a rejection the next input is written into `y_in`, `z_in`.
-    pub(super) fn screen(
-        &mut self,
-        sums: &IterationSums,
-        y_in: &mut [f64],
-        z_in: &mut [f64],
-    ) -> Screen {
+    /// The safeguard, from the iteration's squared fixed-point residual `res_sq`, its squared
+    /// primal residual plus `||y+ - y_in||^2`. On a rejection the next input is written into
+    /// `y_in`, `z_in`.
+    pub(super) fn screen(&mut self, res_sq: f64, y_in: &mut [f64], z_in: &mut [f64]) -> Screen {
         match self {
-            Self::Anderson(a) => a.screen(sums.primal_sq + sums.diff_sq, y_in, z_in),
+            Self::Anderson(a) => a.screen(res_sq, y_in, z_in),
             _ => Screen::Plain,
         }
     }

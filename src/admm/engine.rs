@@ -7,7 +7,7 @@ use super::accelerator::{Accelerator, Screen};
 use super::best_iterate::BestIterate;
 use super::handover::{Handover, HandoverMonitor};
 use super::rho_rule::{IterationView, RhoAdapter};
-use super::{SUpdate, Splitting, Variant};
+use super::{EngineState, SUpdate, Splitting, Variant};
 use crate::csc::dot;
 use crate::types::{Error, Stats, Status};
 use crate::types::{Phase, TracePoint};
@@ -43,19 +43,6 @@ pub struct EngineSettings {
     pub rho_range: f64,
     /// When to stop and hand the iterate over to a finishing phase (none: run to the end).
     pub handover: Option<Handover>,
-}
-
-/// The iterate the loop works on; the caller initializes it (warm start) and reads it back.
-#[derive(Debug, Clone)]
-pub struct EngineState {
-    /// `y` (u~ for the global form, z for the local form).
-    pub y: Vec<f64>,
-    /// Scaled dual.
-    pub zeta: Vec<f64>,
-    /// `A x` of the last x-step.
-    pub ax: Vec<f64>,
-    /// Penalty.
-    pub rho: f64,
 }
 
 /// What the loop reports.
@@ -128,7 +115,9 @@ pub fn run(
     // Everything the loop works with is made here: the loop does not allocate.
     let l = sp.dim();
     let mut w = Work::new(state, l);
-    let mut accel = Accelerator::new(set, &state.y, &state.zeta);
+    let (anderson, interval) = (set.anderson, set.anderson_interval);
+    let relaxation = set.variant.relaxation;
+    let mut accel = Accelerator::new(anderson, interval, relaxation, &state.y, &state.zeta);
     let mut rule = RhoAdapter::new(set.variant.rule, l);
     let mut shift = ShiftSchedule::new(set);
     let mut stop = StopTest::new(set, start, sp);
@@ -150,7 +139,7 @@ pub fn run(
             break; // state still holds the last finite iterate
         }
         // A rejected Anderson point voids the iteration: it restarts from the plain point.
-        match accel.screen(&sums, &mut w.y_in, &mut w.z_in) {
+        match accel.screen(sums.primal_sq + sums.diff_sq, &mut w.y_in, &mut w.z_in) {
             Screen::Rejected => {
                 out.aa_rejected += 1;
                 x_stale = true;
@@ -178,20 +167,35 @@ pub fn run(
         // Next input.
         let sum = |partial: &mut [f64]| sp.sum_across(partial);
         accel.next_input(k, &w.y, &w.zeta, &mut w.y_in, &mut w.z_in, &sum);
-        if rho_next != rho {
-            // Scaled form: the unscaled dual rho * zeta is what must stay put.
-            let s = rho / rho_next;
-            w.z_in.iter_mut().for_each(|v| *v *= s);
-            accel.rho_changed(s);
-            rho = rho_next;
-            sp.set_rho(rho)?;
-        } else if sp.system_changed() {
-            accel.rho_changed(1.0);
-            sp.set_rho(rho)?;
-        }
+        rho = change_rho(sp, &mut accel, &mut w.z_in, rho, rho_next)?;
     }
     finish(sp, state, &best, x_stale, &mut w.ax, &mut out);
     Ok(out)
+}
+
+/// Makes `rho_next` the penalty of the next input, whose scaled dual is `z_in`, or the
+/// current penalty current again when the system changed; the penalty now in force.
+fn change_rho(
+    sp: &mut dyn Splitting,
+    accel: &mut Accelerator,
+    z_in: &mut [f64],
+    rho: f64,
+    rho_next: f64,
+) -> Result<f64, Error> {
+    if rho_next != rho {
+        // Scaled form: the unscaled dual rho * zeta is what must stay put.
+        let s = rho / rho_next;
+        z_in.iter_mut().for_each(|v| *v *= s);
+        accel.rho_changed(s);
+        sp.set_rho(rho_next)?;
+        Ok(rho_next)
+    } else {
+        if sp.system_changed() {
+            accel.rho_changed(1.0);
+            sp.set_rho(rho)?;
+        }
+        Ok(rho)
+    }
 }
 
 /// Ends a run: the status of a loop that ran out of iterations, and the iterate handed back
@@ -299,7 +303,7 @@ fn finite(x: &[f64]) -> bool {
 
 /// An iteration's squared norms and whether its output is finite (everywhere, when the
 /// problem is shared by several processes).
-pub(super) struct IterationSums {
+struct IterationSums {
     /// `||A x+ - c - y+||^2`.
     pub primal_sq: f64,
     /// `||y+ - y_in||^2`.

@@ -18,14 +18,16 @@ mod best_iterate;
 mod engine;
 mod handover;
 mod rho_rule;
+mod state;
 mod variant;
 
 /// Euclidean norm, for plug-ins computing their residuals and scales.
 pub use crate::csc::norm2;
 pub use anderson::Anderson;
-pub use engine::{run, EngineOutcome, EngineSettings, EngineState};
+pub use engine::{run, EngineOutcome, EngineSettings};
 pub use handover::Handover;
 pub use rho_rule::RhoRule;
+pub use state::EngineState;
 pub use variant::{Relaxation, Variant, VARIANT_NAMES};
 
 use crate::types::Error;

@@ -116,7 +116,7 @@ pub(crate) fn contact_form(
 }
 
 /// De Saxce shift of each contact's normal component: `mu ||u_T||`, written into `phi`
-/// (normal slots only). Returns the relative change of the shift.
+/// (normal slots only).
 pub(crate) fn de_saxce_shift(u: &[f64], mu: &[f64], phi: &mut [f64]) {
     for (i, &m) in mu.iter().enumerate() {
         set3(phi, i, [de_saxce_term(get3(u, i), m), 0.0, 0.0]);

@@ -63,53 +63,9 @@ impl Halo {
     ) -> Result<Self, RankError> {
         let comm = comm.duplicate();
         let size = comm.size() as usize;
-        let rank = comm.rank() as usize;
-        // Every process learns every body's owner and place there.
-        let ids = all_gather_varcount(&comm, bodies);
-        let dofs_all =
-            all_gather_varcount(&comm, &dofs.iter().map(|&k| k as u64).collect::<Vec<_>>());
-        let mut owner: HashMap<u64, (usize, Place)> = HashMap::with_capacity(ids.len());
-        for (r, (ids, dofs)) in ids.iter().zip(&dofs_all).enumerate() {
-            let mut first = 0;
-            for (k, (&id, &d)) in ids.iter().zip(dofs).enumerate() {
-                let place = Place {
-                    first,
-                    dofs: d as usize,
-                };
-                if let Some((other, _)) = owner.insert(id, (r, place)) {
-                    return Err(RankError {
-                        rank: r,
-                        kind: ErrorKind::InvalidValue,
-                        message: format!("bodies[{k}]: body id {id} is owned by rank {other} too"),
-                    });
-                }
-                first += d as usize;
-            }
-        }
+        let owner = owners(&comm, bodies, dofs)?;
         let owned: usize = dofs.iter().sum();
-        // The bodies to copy, by owner then id; an unknown one is this process's error.
-        let mut copied: Vec<(usize, u64)> = Vec::new();
-        let mut unknown = None;
-        for (entry, id) in touched {
-            match owner.get(&id) {
-                Some(&(r, _)) if r != rank => copied.push((r, id)),
-                Some(_) => {}
-                None => {
-                    unknown.get_or_insert((entry, id));
-                }
-            }
-        }
-        agree(
-            &comm,
-            unknown.map(|(entry, id)| {
-                (
-                    ErrorKind::InvalidValue,
-                    format!("h_body[{entry}]: body id {id} is owned by no process"),
-                )
-            }),
-        )?;
-        copied.sort_unstable();
-        copied.dedup();
+        let copied = copied_bodies(&comm, &owner, touched)?;
         let mut places: HashMap<u64, Place> = HashMap::new();
         let mut layout = Vec::with_capacity(bodies.len() + copied.len());
         let mut first = 0;
@@ -361,6 +317,70 @@ pub(crate) fn all_gather_varcount(comm: &SimpleCommunicator, mine: &[u64]) -> Ve
         .zip(&displs)
         .map(|(&n, &d)| all[d as usize..(d + n) as usize].to_vec())
         .collect()
+}
+
+/// Every body's owner and place there, learnt from every process (a collective call); the
+/// same error on every process when a body is owned twice.
+fn owners(
+    comm: &SimpleCommunicator,
+    bodies: &[u64],
+    dofs: &[usize],
+) -> Result<HashMap<u64, (usize, Place)>, RankError> {
+    let ids = all_gather_varcount(comm, bodies);
+    let dofs_all = all_gather_varcount(comm, &dofs.iter().map(|&k| k as u64).collect::<Vec<_>>());
+    let mut owner: HashMap<u64, (usize, Place)> = HashMap::with_capacity(ids.len());
+    for (r, (ids, dofs)) in ids.iter().zip(&dofs_all).enumerate() {
+        let mut first = 0;
+        for (k, (&id, &d)) in ids.iter().zip(dofs).enumerate() {
+            let place = Place {
+                first,
+                dofs: d as usize,
+            };
+            if let Some((other, _)) = owner.insert(id, (r, place)) {
+                return Err(RankError {
+                    rank: r,
+                    kind: ErrorKind::InvalidValue,
+                    message: format!("bodies[{k}]: body id {id} is owned by rank {other} too"),
+                });
+            }
+            first += d as usize;
+        }
+    }
+    Ok(owner)
+}
+
+/// The other processes' bodies among `touched` (entry, id), as (owner, id) by owner then
+/// id, each once (a collective call); the same error on every process when a process
+/// touches a body no process owns.
+fn copied_bodies(
+    comm: &SimpleCommunicator,
+    owner: &HashMap<u64, (usize, Place)>,
+    touched: impl Iterator<Item = (usize, u64)>,
+) -> Result<Vec<(usize, u64)>, RankError> {
+    let rank = comm.rank() as usize;
+    let mut copied: Vec<(usize, u64)> = Vec::new();
+    let mut unknown = None;
+    for (entry, id) in touched {
+        match owner.get(&id) {
+            Some(&(r, _)) if r != rank => copied.push((r, id)),
+            Some(_) => {}
+            None => {
+                unknown.get_or_insert((entry, id));
+            }
+        }
+    }
+    agree(
+        comm,
+        unknown.map(|(entry, id)| {
+            (
+                ErrorKind::InvalidValue,
+                format!("h_body[{entry}]: body id {id} is owned by no process"),
+            )
+        }),
+    )?;
+    copied.sort_unstable();
+    copied.dedup();
+    Ok(copied)
 }
 
 /// Offsets of consecutive runs of `counts` entries.

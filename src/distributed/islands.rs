@@ -123,98 +123,151 @@ impl RankSplit {
             h_colptr: vec![0],
             ..RankProblem::default()
         };
+        let mut own = OwnIslands::new(part.bodies.len());
         let mut bodies = Vec::with_capacity(part.bodies.len());
         let (mut mass_at, mut first_at) = (0, 0);
-        let (mut shared_first, mut own_first) = (0, 0);
-        // Own bodies' first velocity there, by their index in the part.
-        let mut own_place = vec![usize::MAX; part.bodies.len()];
-        let mut own_m: Vec<(usize, usize, f64)> = Vec::new();
-        let mut own_f = Vec::new();
         for (b, (&id, &k)) in part.bodies.iter().zip(&part.dofs).enumerate() {
             let block = &part.mass[mass_at..mass_at + k * k];
             let f = &part.f[first_at..first_at + k];
-            if shared_body[b] {
+            let slot = if shared_body[b] {
+                let first = shared.f.len();
                 shared.bodies.push(id);
                 shared.dofs.push(k);
                 shared.mass.extend_from_slice(block);
                 shared.f.extend_from_slice(f);
-                bodies.push((Slot::Shared(shared_first), k));
-                shared_first += k;
+                Slot::Shared(first)
             } else {
-                for (j, column) in block.chunks_exact(k).enumerate() {
-                    for (i, &v) in column.iter().enumerate() {
-                        if v != 0.0 {
-                            own_m.push((own_first + i, own_first + j, v));
-                        }
-                    }
-                }
-                own_f.extend_from_slice(f);
-                own_place[b] = own_first;
-                bodies.push((Slot::Own(own_first), k));
-                own_first += k;
-            }
+                Slot::Own(own.add_body(b, block, f))
+            };
+            bodies.push((slot, k));
             mass_at += k * k;
             first_at += k;
         }
         let mut contacts = Vec::with_capacity(part.n_contacts());
-        let (mut own_w, mut own_mu) = (Vec::new(), Vec::new());
-        let (mut own_colptr, mut own_rows, mut own_values) = (vec![0], Vec::new(), Vec::new());
         for (c, &is_shared) in shared_contact.iter().enumerate() {
-            let columns = 3 * c..3 * c + 3;
-            if is_shared {
-                contacts.push(Slot::Shared(shared.mu.len()));
-                for j in columns {
-                    let e = part.h_colptr[j]..part.h_colptr[j + 1];
-                    shared.h_body.extend_from_slice(&part.h_body[e.clone()]);
-                    shared.h_dof.extend_from_slice(&part.h_dof[e.clone()]);
-                    shared.h_values.extend_from_slice(&part.h_values[e]);
-                    shared.h_colptr.push(shared.h_body.len());
-                }
-                shared.w.extend_from_slice(&part.w[3 * c..3 * c + 3]);
-                shared.mu.push(part.mu[c]);
+            contacts.push(if is_shared {
+                Slot::Shared(add_shared_contact(&mut shared, part, c))
             } else {
-                contacts.push(Slot::Own(own_mu.len()));
-                for j in columns {
-                    for e in part.h_colptr[j]..part.h_colptr[j + 1] {
-                        // Every body of an own contact is an own body of this process.
-                        let (id, dof) = (part.h_body[e], part.h_dof[e]);
-                        let b = index[&id];
-                        if dof >= part.dofs[b] {
-                            return Err((
-                                ErrorKind::InvalidValue,
-                                format!(
-                                    "h_dof[{e}]: velocity {dof} of body id {id}, which has {}",
-                                    part.dofs[b]
-                                ),
-                            ));
-                        }
-                        own_rows.push(own_place[b] + dof);
-                        own_values.push(part.h_values[e]);
-                    }
-                    own_colptr.push(own_rows.len());
-                }
-                own_w.extend_from_slice(&part.w[3 * c..3 * c + 3]);
-                own_mu.push(part.mu[c]);
-            }
+                Slot::Own(own.add_contact(part, c, index)?)
+            });
         }
-        let own = if own_first > 0 || !own_mu.is_empty() {
-            let n = own_first;
-            let problem = CscMatrix::from_triplets("M", n, n, &own_m)
-                .and_then(|m| {
-                    let columns = 3 * own_mu.len();
-                    let h = CscMatrix::new("H", n, columns, own_colptr, own_rows, own_values)?;
-                    GlobalProblem::new(m, h, own_f, own_w, own_mu)
-                })
-                .map_err(|e| (e.kind(), e.to_string()))?;
-            Some(problem)
-        } else {
-            None
-        };
         Ok(Self {
             shared,
-            own,
+            own: own.problem()?,
             contacts,
             bodies,
         })
+    }
+}
+
+/// Appends the part's contact `c` to the shared problem; its index there.
+fn add_shared_contact(shared: &mut RankProblem, part: &RankProblem, c: usize) -> usize {
+    for j in 3 * c..3 * c + 3 {
+        let e = part.h_colptr[j]..part.h_colptr[j + 1];
+        shared.h_body.extend_from_slice(&part.h_body[e.clone()]);
+        shared.h_dof.extend_from_slice(&part.h_dof[e.clone()]);
+        shared.h_values.extend_from_slice(&part.h_values[e]);
+        shared.h_colptr.push(shared.h_body.len());
+    }
+    shared.w.extend_from_slice(&part.w[3 * c..3 * c + 3]);
+    shared.mu.push(part.mu[c]);
+    shared.mu.len() - 1
+}
+
+/// A process's own islands as the cut gathers them, renumbered: `M` as triplets, `f`, and
+/// the columns of `H` with `w` and `mu`, contact by contact.
+struct OwnIslands {
+    /// Velocities so far.
+    n: usize,
+    /// Own bodies' first velocity here, by their index in the part.
+    place: Vec<usize>,
+    m: Vec<(usize, usize, f64)>,
+    f: Vec<f64>,
+    colptr: Vec<usize>,
+    rows: Vec<usize>,
+    values: Vec<f64>,
+    w: Vec<f64>,
+    mu: Vec<f64>,
+}
+
+impl OwnIslands {
+    /// Nothing yet, for a part of `n_bodies` bodies.
+    fn new(n_bodies: usize) -> Self {
+        Self {
+            n: 0,
+            place: vec![usize::MAX; n_bodies],
+            m: Vec::new(),
+            f: Vec::new(),
+            colptr: vec![0],
+            rows: Vec::new(),
+            values: Vec::new(),
+            w: Vec::new(),
+            mu: Vec::new(),
+        }
+    }
+
+    /// Appends the part's body `b`, of mass block `block` (column-major) and force `f`;
+    /// its first velocity here.
+    fn add_body(&mut self, b: usize, block: &[f64], f: &[f64]) -> usize {
+        let (first, k) = (self.n, f.len());
+        for (j, column) in block.chunks_exact(k).enumerate() {
+            for (i, &v) in column.iter().enumerate() {
+                if v != 0.0 {
+                    self.m.push((first + i, first + j, v));
+                }
+            }
+        }
+        self.f.extend_from_slice(f);
+        self.place[b] = first;
+        self.n += k;
+        first
+    }
+
+    /// Appends the part's contact `c`, whose bodies are all own bodies (`index` gives a
+    /// body id's index in the part); its index here.
+    fn add_contact(
+        &mut self,
+        part: &RankProblem,
+        c: usize,
+        index: &HashMap<u64, usize>,
+    ) -> Result<usize, (ErrorKind, String)> {
+        for j in 3 * c..3 * c + 3 {
+            for e in part.h_colptr[j]..part.h_colptr[j + 1] {
+                // Every body of an own contact is an own body of this process.
+                let (id, dof) = (part.h_body[e], part.h_dof[e]);
+                let b = index[&id];
+                if dof >= part.dofs[b] {
+                    return Err((
+                        ErrorKind::InvalidValue,
+                        format!(
+                            "h_dof[{e}]: velocity {dof} of body id {id}, which has {}",
+                            part.dofs[b]
+                        ),
+                    ));
+                }
+                self.rows.push(self.place[b] + dof);
+                self.values.push(part.h_values[e]);
+            }
+            self.colptr.push(self.rows.len());
+        }
+        self.w.extend_from_slice(&part.w[3 * c..3 * c + 3]);
+        self.mu.push(part.mu[c]);
+        Ok(self.mu.len() - 1)
+    }
+
+    /// The islands' problem (`None` when there are none).
+    fn problem(self) -> Result<Option<GlobalProblem>, (ErrorKind, String)> {
+        if self.n == 0 && self.mu.is_empty() {
+            return Ok(None);
+        }
+        let n = self.n;
+        let problem = CscMatrix::from_triplets("M", n, n, &self.m)
+            .and_then(|m| {
+                let columns = 3 * self.mu.len();
+                let h = CscMatrix::new("H", n, columns, self.colptr, self.rows, self.values)?;
+                GlobalProblem::new(m, h, self.f, self.w, self.mu)
+            })
+            .map_err(|e| (e.kind(), e.to_string()))?;
+        Ok(Some(problem))
     }
 }

@@ -19,6 +19,8 @@
 
 mod halo;
 mod islands;
+#[doc(hidden)]
+pub mod mpirun;
 mod problem;
 mod solver;
 mod splitting;

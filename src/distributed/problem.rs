@@ -73,35 +73,8 @@ impl RankProblem {
         contact_rank: &[usize],
         rank: usize,
     ) -> Result<Self, Error> {
-        let n = whole.n();
-        if dofs.iter().sum::<usize>() != n {
-            return Err(Error::Dimension {
-                field: "dofs",
-                expected: n,
-                found: dofs.iter().sum(),
-            });
-        }
-        let bodies = dofs.len();
-        let dimension = |field, expected, found| Error::Dimension {
-            field,
-            expected,
-            found,
-        };
-        if body_rank.len() != bodies {
-            return Err(dimension("body_rank", bodies, body_rank.len()));
-        }
-        if contact_rank.len() != whole.n_contacts() {
-            return Err(dimension(
-                "contact_rank",
-                whole.n_contacts(),
-                contact_rank.len(),
-            ));
-        }
-        if whole.n_joints() > 0 {
-            return Err(Error::Unsupported(
-                "a problem with joints cannot be shared out among processes".into(),
-            ));
-        }
+        check_split(whole, dofs, body_rank, contact_rank)?;
+        let (n, bodies) = (whole.n(), dofs.len());
         // Each velocity's body and the body's first velocity.
         let mut body_of = Vec::with_capacity(n);
         let mut first = Vec::with_capacity(bodies);
@@ -222,4 +195,44 @@ impl RankProblem {
         }
         Ok(())
     }
+}
+
+/// Checks the sizes [`RankProblem::split`] is given against the whole problem, which must
+/// have no joints.
+fn check_split(
+    whole: &GlobalProblem,
+    dofs: &[usize],
+    body_rank: &[usize],
+    contact_rank: &[usize],
+) -> Result<(), Error> {
+    let n = whole.n();
+    if dofs.iter().sum::<usize>() != n {
+        return Err(Error::Dimension {
+            field: "dofs",
+            expected: n,
+            found: dofs.iter().sum(),
+        });
+    }
+    let bodies = dofs.len();
+    let dimension = |field, expected, found| Error::Dimension {
+        field,
+        expected,
+        found,
+    };
+    if body_rank.len() != bodies {
+        return Err(dimension("body_rank", bodies, body_rank.len()));
+    }
+    if contact_rank.len() != whole.n_contacts() {
+        return Err(dimension(
+            "contact_rank",
+            whole.n_contacts(),
+            contact_rank.len(),
+        ));
+    }
+    if whole.n_joints() > 0 {
+        return Err(Error::Unsupported(
+            "a problem with joints cannot be shared out among processes".into(),
+        ));
+    }
+    Ok(())
 }

@@ -277,37 +277,12 @@ fn block_gram(
 
 #[cfg(test)]
 mod tests {
-    //! Each test runs itself again under `mpirun` (Open MPI's, with `--oversubscribe`: this
-    //! machine may have fewer cores than processes), where the environment variable
-    //! [`CHILD`] tells it to do the work of one process; the parent checks the exit codes
-    //! and what the processes printed.
+    //! Each test runs itself again on several processes ([`crate::distributed::mpirun`]);
+    //! the parent checks the exit codes and what the processes printed.
     use super::*;
+    use crate::distributed::mpirun;
     use mpi::traits::Communicator;
     use nalgebra::{DMatrix, DVector};
-    use std::process::Command;
-
-    const CHILD: &str = "CADMM_MPI_CHILD";
-
-    /// Runs this binary's test `name` on `np` processes; their standard output.
-    fn mpirun(name: &str, np: usize) -> String {
-        let out = Command::new("timeout")
-            .args(["300", "mpirun", "--oversubscribe", "-np", &np.to_string()])
-            .arg(std::env::current_exe().expect("the test binary"))
-            .args([name, "--exact", "--nocapture", "--test-threads", "1"])
-            .env(CHILD, "1")
-            .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-            .output()
-            .expect("mpirun runs (Debian: openmpi-bin)");
-        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-        assert!(
-            out.status.success(),
-            "mpirun -np {np} {name}: {:?}\n{stdout}\n{}",
-            out.status,
-            String::from_utf8_lossy(&out.stderr)
-        );
-        stdout
-    }
 
     /// A pile of spheres on a jittered `nx x ny x nz` grid: contacts between neighbours
     /// along each axis and with the floor under the lowest layer. Per body: id, grid x
@@ -493,9 +468,9 @@ mod tests {
     #[test]
     fn every_process_count_solves_the_whole_system() {
         let name = "distributed::system::tests::every_process_count_solves_the_whole_system";
-        if std::env::var_os(CHILD).is_none() {
+        if !mpirun::is_child() {
             for np in [1, 2, 4] {
-                let out = mpirun(name, np);
+                let out = mpirun::run(name, np, &[]);
                 assert_eq!(
                     out.matches("agrees with the one-process solve").count(),
                     np,
@@ -512,7 +487,8 @@ mod tests {
                 lines.sort();
                 lines
             };
-            let (first, second) = (checksums(mpirun(name, 2)), checksums(mpirun(name, 2)));
+            let run = || checksums(mpirun::run(name, 2, &[]));
+            let (first, second) = (run(), run());
             assert_eq!(first.len(), 2);
             assert_eq!(first, second);
             return;
@@ -562,8 +538,8 @@ mod tests {
     #[test]
     fn a_bad_part_is_every_process_error() {
         let name = "distributed::system::tests::a_bad_part_is_every_process_error";
-        if std::env::var_os(CHILD).is_none() {
-            let out = mpirun(name, 2);
+        if !mpirun::is_child() {
+            let out = mpirun::run(name, 2, &[]);
             assert_eq!(out.matches("same error").count(), 4, "{out}");
             return;
         }

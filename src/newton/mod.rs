@@ -137,7 +137,7 @@ pub(crate) fn iterate<S: NewtonSystem>(
 ) -> NewtonOutcome {
     let factorizations0 = s.factorizations();
     let mut merit = s.evaluate_at(p, x);
-    let mut err = s.error(p, x);
+    let err = s.error(p, x);
     // The regularization follows the residual relative to the impulse scale, not the error
     // measure: the measure adds velocities to impulses, so it changes with the units, and
     // the iterates would too.
@@ -146,53 +146,20 @@ pub(crate) fn iterate<S: NewtonSystem>(
     };
     let mut rel = relative(merit, s.impulse_scale(p, x));
     best.copy_from_slice(x);
-    let mut best_err = err;
-    let mut best_rel = rel;
-    // The iteration at which the measure first met the tolerance.
-    let mut met_at: Option<usize> = None;
+    let mut progress = Progress {
+        err,
+        rel,
+        met_at: None,
+        last_improvement: 0,
+    };
     let mut reg = Regularization::new(s.alpha_cap());
     let mut window = MeritWindow::new(merit);
-    let (mut iterations, mut last_improvement) = (0, 0);
+    let mut iterations = 0;
     let status = loop {
-        if best_err <= tol {
-            // The measure adds velocities to impulses, so whether an iterate meets it
-            // depends on the units; the iterates do not. Up to `NEWTON.confirm` more steps
-            // are taken until the unit-free residual agrees, so that the same iterate is
-            // handed back in any units (the measure alone would stop a step earlier or
-            // later when the mass unit changes).
-            let met = *met_at.get_or_insert(iterations);
-            if best_rel <= NEWTON.alpha_per_residual * tol || iterations - met >= NEWTON.confirm {
-                break NewtonStatus::Converged;
-            }
+        if let Some(status) = progress.stop(merit, iterations, tol, max_iter, deadline) {
+            break status;
         }
-        if !merit.is_finite() {
-            break NewtonStatus::Failed(FailReason::NonFinite);
-        }
-        if iterations >= max_iter {
-            break NewtonStatus::Failed(FailReason::MaxIterations);
-        }
-        if deadline.is_some_and(|d| Instant::now() >= d) {
-            break NewtonStatus::Failed(FailReason::Deadline);
-        }
-        if iterations - last_improvement >= NEWTON.stall {
-            break NewtonStatus::Failed(FailReason::NoProgress);
-        }
-        // One step: retry with a stronger regularization until the line search passes.
-        let step = loop {
-            let alpha = reg.alpha(rel);
-            let outcome = if s.direction(p, alpha) {
-                s.line_search(p, x, window.reference())
-                    .ok_or(FailReason::LineSearch)
-            } else {
-                Err(FailReason::Singular)
-            };
-            match outcome {
-                Ok(t) => break Ok(t),
-                Err(why) if !reg.strengthen(rel) => break Err(why),
-                Err(_) => {}
-            }
-        };
-        let t = match step {
+        let t = match regularized_step(s, p, x, &mut reg, rel, window.reference()) {
             Ok(t) => t,
             Err(why) => break NewtonStatus::Failed(why),
         };
@@ -206,28 +173,19 @@ pub(crate) fn iterate<S: NewtonSystem>(
         merit = s.evaluate_at(p, x);
         rel = relative(merit, s.impulse_scale(p, x));
         window.push(merit);
-        err = s.error(p, x);
-        // Past the tolerance, the best is the unit-free one among the iterates that meet it.
-        let better = if best_err <= tol {
-            err <= tol && rel < best_rel
-        } else {
-            err < best_err
-        };
-        if better {
-            best_err = err;
-            best_rel = rel;
-            last_improvement = iterations;
+        let err = s.error(p, x);
+        if progress.improves(err, rel, iterations, tol) {
             best.copy_from_slice(x);
         }
     };
     // A step that fails while confirming leaves a best iterate that meets the tolerance.
-    let status = if best_err <= tol {
+    let status = if progress.err <= tol {
         NewtonStatus::Converged
     } else {
         status
     };
     x.copy_from_slice(best);
-    let mut error = best_err;
+    let mut error = progress.err;
     if status == NewtonStatus::Converged {
         error = s.snap_open(p, x, error, tol);
     }
@@ -236,6 +194,97 @@ pub(crate) fn iterate<S: NewtonSystem>(
         iterations,
         factorizations: s.factorizations() - factorizations0,
         error,
+    }
+}
+
+/// One step of [`iterate`] from `x`, at the relative residual `rel`: retried with a
+/// stronger regularization until the line search against `reference` passes; its length.
+fn regularized_step<S: NewtonSystem>(
+    s: &mut S,
+    p: &S::Problem,
+    x: &[f64],
+    reg: &mut Regularization,
+    rel: f64,
+    reference: f64,
+) -> Result<f64, FailReason> {
+    loop {
+        let alpha = reg.alpha(rel);
+        let outcome = if s.direction(p, alpha) {
+            s.line_search(p, x, reference).ok_or(FailReason::LineSearch)
+        } else {
+            Err(FailReason::Singular)
+        };
+        match outcome {
+            Ok(t) => return Ok(t),
+            Err(why) if !reg.strengthen(rel) => return Err(why),
+            Err(_) => {}
+        }
+    }
+}
+
+/// The best iterate of [`iterate`] so far, as its stopping rules read it.
+struct Progress {
+    /// The best iterate's error measure.
+    err: f64,
+    /// The best iterate's unit-free relative residual.
+    rel: f64,
+    /// The iteration at which the measure first met the tolerance.
+    met_at: Option<usize>,
+    /// The iteration that last improved the best iterate.
+    last_improvement: usize,
+}
+
+impl Progress {
+    /// Why the iteration stops after `iterations` steps, at the merit `merit`; `None` to
+    /// take another step.
+    fn stop(
+        &mut self,
+        merit: f64,
+        iterations: usize,
+        tol: f64,
+        max_iter: usize,
+        deadline: Option<Instant>,
+    ) -> Option<NewtonStatus> {
+        if self.err <= tol {
+            // The measure adds velocities to impulses, so whether an iterate meets it
+            // depends on the units; the iterates do not. Up to `NEWTON.confirm` more steps
+            // are taken until the unit-free residual agrees, so that the same iterate is
+            // handed back in any units (the measure alone would stop a step earlier or
+            // later when the mass unit changes).
+            let met = *self.met_at.get_or_insert(iterations);
+            if self.rel <= NEWTON.alpha_per_residual * tol || iterations - met >= NEWTON.confirm {
+                return Some(NewtonStatus::Converged);
+            }
+        }
+        let why = if !merit.is_finite() {
+            FailReason::NonFinite
+        } else if iterations >= max_iter {
+            FailReason::MaxIterations
+        } else if deadline.is_some_and(|d| Instant::now() >= d) {
+            FailReason::Deadline
+        } else if iterations - self.last_improvement >= NEWTON.stall {
+            FailReason::NoProgress
+        } else {
+            return None;
+        };
+        Some(NewtonStatus::Failed(why))
+    }
+
+    /// Whether the iterate after `iterations` steps, of error `err` and relative residual
+    /// `rel`, is the new best; it is recorded as such then.
+    fn improves(&mut self, err: f64, rel: f64, iterations: usize, tol: f64) -> bool {
+        // Past the tolerance, the best is the unit-free one among the iterates that meet it.
+        let better = if self.err <= tol {
+            err <= tol && rel < self.rel
+        } else {
+            err < self.err
+        };
+        if better {
+            self.err = err;
+            self.rel = rel;
+            self.last_improvement = iterations;
+        }
+        better
     }
 }
 

@@ -7,9 +7,9 @@
 //! process's part of a problem shared over processes (`distributed/`), whose vectors over
 //! the constraint space are then its own contacts' rows and its velocities its own bodies'.
 
-use super::{
+use super::form::{
     active_rows, check_vector, count_rows, de_saxce_shift, initial_shift_of, prox_input,
-    rows_missing, ContactForm, NewValues,
+    rows_missing, ContactForm,
 };
 use crate::admm::{EngineState, Splitting};
 use crate::certificate::run_off;
@@ -19,7 +19,7 @@ use crate::linsys::velocity::{
 };
 use crate::measure::Floors;
 use crate::newton::{GlobalNewton, NewtonOutcome};
-use crate::problem::{GlobalProblem, Problem, ProblemRef};
+use crate::problem::{GlobalProblem, NewValues, Problem, ProblemRef};
 use crate::settings::LinearSolver;
 use crate::tuning::SCREEN_RATIO;
 use crate::types::Error;
@@ -40,7 +40,7 @@ pub(crate) struct GlobalSplitting<S: VelocitySystem> {
     /// Impulses of the current iterate, for the error measure.
     r: Vec<f64>,
     /// 1 for the rows of the contact space in the system's pattern, 0 for the tangential
-    /// rows of frictionless contacts ([`super::active_rows`]).
+    /// rows of frictionless contacts ([`super::form::active_rows`]).
     in_pattern: Vec<f64>,
     /// The rows the system holds now: those of `in_pattern` less the screened contacts'.
     active: Vec<f64>,

@@ -3,7 +3,9 @@
 //! x-update: `(W + rho I) x = -(q + Phi(s)) + rho (z - zeta)`, by Cholesky when W is
 //! symmetric (up to round-off), by LU otherwise.
 
-use super::{active_rows, count_rows, de_saxce_shift, initial_shift, rows_missing, ContactForm};
+use super::form::{
+    active_rows, count_rows, de_saxce_shift, initial_shift, rows_missing, ContactForm,
+};
 use crate::admm::{EngineState, Splitting};
 use crate::certificate::local_run_off;
 use crate::cone::{de_saxce, get3, project_cone, set3};
@@ -121,7 +123,7 @@ fn identity(m: usize) -> impl Iterator<Item = (usize, usize, f64)> {
     (0..m).map(|i| (i, i, 1.0))
 }
 
-/// The entries of W between rows in the system (see [`super::active_rows`]): a left-out
+/// The entries of W between rows in the system (see [`super::form::active_rows`]): a left-out
 /// row keeps only `rho` on its diagonal, and a zero right-hand side there gives `r_T = 0`.
 fn active_triplets<'a>(
     w: &'a CscMatrix,

@@ -3,7 +3,8 @@
 //! `[[M + rho H D H^T, G], [G^T, -delta I]]`, corrected by one step of iterative
 //! refinement; dense or sparse ([`Factor`]).
 
-use super::{Accuracy, OwnProblem, ProblemSystem, VelocitySystem};
+use super::own_problem::OwnProblem;
+use super::system::{Accuracy, ProblemSystem, VelocitySystem};
 use crate::csc::{norm2, RowMajor};
 use crate::linsys::param_matrix::{triplets, Assembly};
 use crate::linsys::{Factor, FactorKind, GramProduct, ParamMatrix};

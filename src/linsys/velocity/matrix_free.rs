@@ -1,8 +1,9 @@
 //! The matrix-free v-update system: preconditioned conjugate gradients on
 //! `M + rho H D H^T` (symmetric M, no joints), solved as exactly as the last error needs
-//! ([`super::inexact_stop`]).
+//! ([`super::system::inexact_stop`]).
 
-use super::{inexact_stop, Accuracy, OwnProblem, ProblemSystem, VelocitySystem};
+use super::own_problem::OwnProblem;
+use super::system::{inexact_stop, Accuracy, ProblemSystem, VelocitySystem};
 use crate::csc::norm2;
 use crate::linsys::{Gram, GramPcg};
 use crate::problem::GlobalProblem;

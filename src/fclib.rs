@@ -107,109 +107,139 @@ fn read_matrix(
     check_size(path, name, "m", nrows, rows)?;
     check_size(path, name, "n", ncols, cols)?;
     let nz = scalar(&g, "nz", path)?;
-    let p = ints(&g, "p", path)?;
-    let i = ints(&g, "i", path)?;
-    let x = floats(&g, "x", path)?;
-    let to_usize = |v: &[i64], what: &str| -> Result<Vec<usize>, Error> {
-        v.iter().map(|&k| index(k, what, path)).collect()
+    let stored = Stored {
+        name,
+        path,
+        nrows,
+        ncols,
+        p: ints(&g, "p", path)?,
+        i: ints(&g, "i", path)?,
+        x: floats(&g, "x", path)?,
     };
     match nz {
-        -1 => {
-            if p.len() != ncols + 1 {
-                return Err(io(
-                    path,
-                    format!(
-                        "matrix {name}: n = {ncols} but p holds {} column pointers",
-                        p.len()
-                    ),
-                ));
-            }
-            let colptr = to_usize(&p, "column pointer")?;
-            let nnz = *colptr.last().unwrap_or(&0);
-            if i.len() < nnz || x.len() < nnz {
-                return Err(io(
-                    path,
-                    format!(
-                        "matrix {name}: p announces {nnz} entries, i holds {} and x holds {}",
-                        i.len(),
-                        x.len()
-                    ),
-                ));
-            }
-            CscMatrix::new(
-                name,
-                nrows,
-                ncols,
-                colptr,
-                to_usize(&i[..nnz], "row index")?,
-                x[..nnz].to_vec(),
-            )
-        }
-        -2 => {
-            let rowptr = to_usize(&p, "row pointer")?;
-            if rowptr.len() != nrows + 1 {
-                return Err(io(
-                    path,
-                    format!(
-                        "matrix {name}: m = {nrows} but p holds {} row pointers",
-                        rowptr.len()
-                    ),
-                ));
-            }
-            if let Some(r) = rowptr.windows(2).position(|w| w[1] < w[0]) {
-                return Err(io(
-                    path,
-                    format!("matrix {name}: row pointers p decrease at row {r}"),
-                ));
-            }
-            // Every entry needs a column index in i and a value in x.
-            let nnz = rowptr[nrows];
-            if i.len() < nnz || x.len() < nnz {
-                return Err(io(
-                    path,
-                    format!(
-                        "matrix {name}: p announces {nnz} entries, i holds {} and x holds {}",
-                        i.len(),
-                        x.len()
-                    ),
-                ));
-            }
-            let mut t = Vec::with_capacity(nnz);
-            for r in 0..nrows {
-                for k in rowptr[r]..rowptr[r + 1] {
-                    t.push((r, index(i[k], "column index", path)?, x[k]));
-                }
-            }
-            CscMatrix::from_triplets(name, nrows, ncols, &t)
-        }
-        nz if nz >= 0 => {
-            let nz = nz as usize;
-            if i.len() < nz || p.len() < nz || x.len() < nz {
-                return Err(io(
-                    path,
-                    format!(
-                        "matrix {name}: nz = {nz} triplets announced, i holds {}, p {} and x {}",
-                        i.len(),
-                        p.len(),
-                        x.len()
-                    ),
-                ));
-            }
-            let t: Result<Vec<_>, Error> = (0..nz)
-                .map(|k| {
-                    Ok((
-                        index(i[k], "row index", path)?,
-                        index(p[k], "column index", path)?,
-                        x[k],
-                    ))
-                })
-                .collect();
-            CscMatrix::from_triplets(name, nrows, ncols, &t?)
-        }
+        -1 => stored.by_columns(),
+        -2 => stored.by_rows(),
+        nz if nz >= 0 => stored.triplets(nz as usize),
         other => Err(io(
             path,
             format!("matrix {name}: unknown encoding nz = {other}"),
         )),
+    }
+}
+
+/// A matrix's arrays as the file stores them, in one of FCLib's three encodings.
+struct Stored<'a> {
+    name: &'static str,
+    path: &'a Path,
+    nrows: usize,
+    ncols: usize,
+    p: Vec<i64>,
+    i: Vec<i64>,
+    x: Vec<f64>,
+}
+
+impl Stored<'_> {
+    fn indices(&self, v: &[i64], what: &str) -> Result<Vec<usize>, Error> {
+        v.iter().map(|&k| index(k, what, self.path)).collect()
+    }
+
+    /// Refuses `p` announcing more entries than `i` and `x` hold.
+    fn check_entries(&self, nnz: usize) -> Result<(), Error> {
+        if self.i.len() < nnz || self.x.len() < nnz {
+            return Err(io(
+                self.path,
+                format!(
+                    "matrix {}: p announces {nnz} entries, i holds {} and x holds {}",
+                    self.name,
+                    self.i.len(),
+                    self.x.len()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Compressed columns (`nz = -1`): `p` column pointers, `i` row indices.
+    fn by_columns(&self) -> Result<CscMatrix, Error> {
+        let (name, ncols) = (self.name, self.ncols);
+        if self.p.len() != ncols + 1 {
+            return Err(io(
+                self.path,
+                format!(
+                    "matrix {name}: n = {ncols} but p holds {} column pointers",
+                    self.p.len()
+                ),
+            ));
+        }
+        let colptr = self.indices(&self.p, "column pointer")?;
+        let nnz = *colptr.last().unwrap_or(&0);
+        self.check_entries(nnz)?;
+        CscMatrix::new(
+            name,
+            self.nrows,
+            ncols,
+            colptr,
+            self.indices(&self.i[..nnz], "row index")?,
+            self.x[..nnz].to_vec(),
+        )
+    }
+
+    /// Compressed rows (`nz = -2`): `p` row pointers, `i` column indices.
+    fn by_rows(&self) -> Result<CscMatrix, Error> {
+        let (name, nrows) = (self.name, self.nrows);
+        let rowptr = self.indices(&self.p, "row pointer")?;
+        if rowptr.len() != nrows + 1 {
+            return Err(io(
+                self.path,
+                format!(
+                    "matrix {name}: m = {nrows} but p holds {} row pointers",
+                    rowptr.len()
+                ),
+            ));
+        }
+        if let Some(r) = rowptr.windows(2).position(|w| w[1] < w[0]) {
+            return Err(io(
+                self.path,
+                format!("matrix {name}: row pointers p decrease at row {r}"),
+            ));
+        }
+        // Every entry needs a column index in i and a value in x.
+        let nnz = rowptr[nrows];
+        self.check_entries(nnz)?;
+        let mut t = Vec::with_capacity(nnz);
+        for r in 0..nrows {
+            for k in rowptr[r]..rowptr[r + 1] {
+                t.push((r, index(self.i[k], "column index", self.path)?, self.x[k]));
+            }
+        }
+        CscMatrix::from_triplets(name, nrows, self.ncols, &t)
+    }
+
+    /// `nz` triplets: `i` row indices, `p` column indices.
+    fn triplets(&self, nz: usize) -> Result<CscMatrix, Error> {
+        let (i, p, x) = (&self.i, &self.p, &self.x);
+        if i.len() < nz || p.len() < nz || x.len() < nz {
+            return Err(io(
+                self.path,
+                format!(
+                    "matrix {}: nz = {nz} triplets announced, i holds {}, p {} and x {}",
+                    self.name,
+                    i.len(),
+                    p.len(),
+                    x.len()
+                ),
+            ));
+        }
+        let t: Result<Vec<_>, Error> = (0..nz)
+            .map(|k| {
+                Ok((
+                    index(i[k], "row index", self.path)?,
+                    index(p[k], "column index", self.path)?,
+                    x[k],
+                ))
+            })
+            .collect();
+        CscMatrix::from_triplets(self.name, self.nrows, self.ncols, &t?)
     }
 }
 

@@ -178,11 +178,6 @@ const LONG_FUNCTIONS_BEING_RESTRUCTURED: &[(&str, &str)] = &[
         "`step_across`, 95 lines: its dense solve moves to the one dense solver",
     ),
     (
-        "src/fclib.rs",
-        "`read_matrix`, 120 lines: one branch per FCLib matrix encoding, to become a \
-         function each",
-    ),
-    (
         "src/ffi/csc.rs",
         "`read_csc`, 85 lines: the column-pointer checks, to become a function of their own",
     ),

@@ -45,7 +45,12 @@
 /**
  * A solver for one problem shared out among MPI processes, each process holding its own
  * handle. Opaque; created by `cadmm_distributed_solver_new`, released by
- * `cadmm_distributed_solver_free`.
+ * `cadmm_distributed_solver_free`. A call that reports `CADMM_ERR_PANIC` leaves this
+ * process's handle unusable, as for `cadmm_solver`: every later call on it returns
+ * `CADMM_ERR_PANIC` at once, without communicating, except
+ * `cadmm_distributed_solver_last_error` and `cadmm_distributed_solver_free`. The other
+ * processes may be left waiting in the collective call the panic interrupted: end the job
+ * (`MPI_Abort`).
  */
 typedef struct cadmm_distributed_solver cadmm_distributed_solver;
 #endif
@@ -68,7 +73,10 @@ typedef struct cadmm_settings cadmm_settings;
 
 /**
  * A solver for one problem and its successors with the same sparsity pattern. Opaque;
- * created by `cadmm_solver_new`, released by `cadmm_solver_free`.
+ * created by `cadmm_solver_new`, released by `cadmm_solver_free`. A call that reports
+ * `CADMM_ERR_PANIC` leaves it unusable: every later call on it returns `CADMM_ERR_PANIC`
+ * (`cadmm_solver_trace_len` returns 0) and changes nothing, except
+ * `cadmm_solver_last_error` and `cadmm_solver_free`.
  */
 typedef struct cadmm_solver cadmm_solver;
 
@@ -360,8 +368,9 @@ typedef struct cadmm_trace_point {
 #define CADMM_ERR_UNSUPPORTED 9
 
 /**
- * An internal error (a Rust panic) was caught at the API boundary. A solver that
- * reported it is unusable afterwards and must be freed.
+ * An internal error (a Rust panic) was caught at the API boundary. A solver (one-process
+ * or distributed) that reported it is unusable afterwards: every later call on it returns
+ * this code again. Free it.
  */
 #define CADMM_ERR_PANIC 10
 

@@ -34,6 +34,7 @@ mod arrays;
 pub mod csc;
 #[cfg(feature = "mpi")]
 pub mod distributed;
+mod handle;
 mod panic;
 pub mod problem;
 pub mod result;

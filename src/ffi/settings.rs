@@ -1,7 +1,8 @@
 //! `cadmm_settings`: solver settings, each value validated when it is set.
 
 use super::arrays::{check_ptr, utf8};
-use super::panic::{guard, guard_value};
+use super::handle::release;
+use super::panic::guard;
 use super::result::{cadmm_result, Failure, FfiResult, CADMM_ERR_INVALID_SETTING};
 use crate::admm::SUpdate;
 use crate::settings::InitialRho;
@@ -277,12 +278,8 @@ pub unsafe extern "C" fn cadmm_settings_set_newton(
 /// Releases settings. NULL is a no-op. The handle must not be used afterwards.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_settings_free(s: *mut cadmm_settings) {
-    guard_value((), || {
-        if !s.is_null() {
-            // SAFETY: created by Box::into_raw in this module, freed once by contract.
-            drop(unsafe { Box::from_raw(s) });
-        }
-    })
+    // SAFETY: made with Box::into_raw by `cadmm_settings_new`, released once by contract.
+    unsafe { release(s) }
 }
 
 /// Borrows a settings handle.

@@ -8,10 +8,12 @@ use super::result::{
     cadmm_result, cadmm_status, status_code, Failure, FfiResult, CADMM_ERR_INVALID_VALUE,
 };
 use super::settings::{cadmm_settings, settings_ref};
-use super::stats::{cadmm_stats, cadmm_trace_point, write_stats, STATS_MIN_SIZE};
+use super::stats::{
+    cadmm_phase, cadmm_stats, cadmm_trace_point, phase_code, write_stats, STATS_MIN_SIZE,
+};
 use crate::problem::{NewValues, Problem};
 use crate::solver::Solver;
-use crate::types::{Phase, TracePoint};
+use crate::types::TracePoint;
 use std::ffi::c_char;
 
 /// A solver for one problem and its successors with the same sparsity pattern. Opaque;
@@ -465,24 +467,21 @@ fn trace_point(sv: &cadmm_solver, i: usize) -> FfiResult<&TracePoint> {
     })
 }
 
-/// The phase of trace point `i` (`0 <= i < cadmm_solver_trace_len`): 0 for an ADMM
-/// iteration, 1 for the end of a semismooth Newton phase (whose point has NaN residuals).
-/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (index out of range).
+/// The phase of trace point `i` (`0 <= i < cadmm_solver_trace_len`): `CADMM_PHASE_ADMM`
+/// for an ADMM iteration, `CADMM_PHASE_NEWTON` for the end of a semismooth Newton phase
+/// (whose point has NaN residuals). Errors: `CADMM_ERR_NULL_POINTER`,
+/// `CADMM_ERR_INVALID_VALUE` (index out of range).
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_solver_get_trace_phase(
     sv: *const cadmm_solver,
     i: usize,
-    phase: *mut i32,
+    phase: *mut cadmm_phase,
 ) -> cadmm_result {
     let body = |sv: &cadmm_solver| -> FfiResult {
         check_ptr("phase", phase.cast_const())?;
         let point = trace_point(sv, i)?;
-        let code = match point.phase {
-            Phase::Admm => 0,
-            Phase::Newton => 1,
-        };
         // SAFETY: checked non-NULL and aligned.
-        unsafe { phase.write(code) };
+        unsafe { phase.write(phase_code(point.phase)) };
         Ok(())
     };
     // SAFETY: the caller's contract, forwarded.

@@ -16,10 +16,11 @@
  *      memory 5 change the Anderson attempts (accepted + rejected; at most one attempt per
  *      `every` iterations); 0 is refused with CADMM_ERR_INVALID_SETTING and the settings
  *      keep the previous interval.
- *   4. cadmm_solver_get_trace_phase with "auto": 0 for ADMM points (finite residuals), 1 for
- *      the point ending a Newton phase (NaN residuals), one such point per Newton phase;
- *      index out of range -> CADMM_ERR_INVALID_VALUE, NULL -> CADMM_ERR_NULL_POINTER, the
- *      out-parameter untouched on failure.
+ *   4. cadmm_solver_get_trace_phase with "auto": CADMM_PHASE_ADMM (0) for ADMM points
+ *      (finite residuals), CADMM_PHASE_NEWTON (1) for the point ending a Newton phase (NaN
+ *      residuals), one such point per Newton phase; index out of range ->
+ *      CADMM_ERR_INVALID_VALUE, NULL -> CADMM_ERR_NULL_POINTER, the out-parameter untouched
+ *      on failure; an int32_t out-parameter (the type cadmm_phase names) still compiles.
  *   5. cadmm_last_error is per thread: two threads fail at once (a barrier before and after
  *      the failing calls), each with another error, many rounds; each reads its own message.
  *   6. A time limit of 0.05 s on a generated global problem of 600 contacts: TIME_LIMIT, and
@@ -490,7 +491,7 @@ static void test_trace_phase(void)
     cadmm_solver *sv = NULL;
     cadmm_stats st;
     size_t len, admm_points = 0, newton_points = 0;
-    int32_t phase;
+    cadmm_phase phase;
 
     printf("4. trace phases (auto, trace on, tolerance 1e-10; global, %zu contacts):\n", p.nc);
     REQUIRE_OK(cadmm_settings_set_variant(s, "auto"));
@@ -515,17 +516,18 @@ static void test_trace_phase(void)
         REQUIRE_OK(cadmm_solver_get_trace(sv, i, &pt));
         EXPECT_RC(cadmm_solver_get_trace_phase(sv, i, &phase), CADMM_OK);
         nan_res = isnan(pt.primal_residual) && isnan(pt.dual_residual);
-        CHECK_MSG(phase == 0 || phase == 1, "point %zu: phase %d", i, (int)phase);
-        CHECK_MSG((phase == 1) == nan_res,
+        CHECK_MSG(phase == CADMM_PHASE_ADMM || phase == CADMM_PHASE_NEWTON,
+                  "point %zu: phase %d", i, (int)phase);
+        CHECK_MSG((phase == CADMM_PHASE_NEWTON) == nan_res,
                   "point %zu (iteration %llu): phase %d but residuals %.3e, %.3e", i,
                   (unsigned long long)pt.iteration, (int)phase, pt.primal_residual,
                   pt.dual_residual);
-        if (phase == 0) {
+        if (phase == CADMM_PHASE_ADMM) {
             CHECK_MSG(isfinite(pt.primal_residual) && isfinite(pt.dual_residual),
                       "ADMM point %zu: residuals %.3e, %.3e", i, pt.primal_residual,
                       pt.dual_residual);
             ++admm_points;
-        } else if (phase == 1) {
+        } else if (phase == CADMM_PHASE_NEWTON) {
             ++newton_points;
         }
     }
@@ -538,13 +540,18 @@ static void test_trace_phase(void)
               "%zu Newton points in the trace, %llu Newton phases in the stats", newton_points,
               (unsigned long long)st.newton_phases);
     if (len > 0) {
+        int32_t as_int = -7;
         EXPECT_RC(cadmm_solver_get_trace_phase(sv, 0, &phase), CADMM_OK);
-        CHECK_MSG(phase == 0, "the first point has phase %d (ADMM comes first)", (int)phase);
+        CHECK_MSG(phase == CADMM_PHASE_ADMM, "the first point has phase %d (ADMM comes first)",
+                  (int)phase);
+        /* cadmm_phase is int32_t: a program written before it had a name still compiles */
+        EXPECT_RC(cadmm_solver_get_trace_phase(sv, 0, &as_int), CADMM_OK);
+        CHECK_MSG(as_int == phase, "the phase read as int32_t is %d", (int)as_int);
         /* a solve whose Newton phases all met the tolerance ended with one */
         if (st.newton_fallbacks == 0) {
             EXPECT_RC(cadmm_solver_get_trace_phase(sv, len - 1, &phase), CADMM_OK);
-            CHECK_MSG(phase == 1, "the last point has phase %d (the solve ends with Newton)",
-                      (int)phase);
+            CHECK_MSG(phase == CADMM_PHASE_NEWTON,
+                      "the last point has phase %d (the solve ends with Newton)", (int)phase);
         }
     }
     phase = -7;

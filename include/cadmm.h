@@ -45,7 +45,12 @@
 /**
  * A solver for one problem shared out among MPI processes, each process holding its own
  * handle. Opaque; created by `cadmm_distributed_solver_new`, released by
- * `cadmm_distributed_solver_free`.
+ * `cadmm_distributed_solver_free`. A call that reports `CADMM_ERR_PANIC` leaves this
+ * process's handle unusable, as for `cadmm_solver`: every later call on it returns
+ * `CADMM_ERR_PANIC` at once, without communicating, except
+ * `cadmm_distributed_solver_last_error` and `cadmm_distributed_solver_free`. The other
+ * processes may be left waiting in the collective call the panic interrupted: end the job
+ * (`MPI_Abort`).
  */
 typedef struct cadmm_distributed_solver cadmm_distributed_solver;
 #endif
@@ -68,7 +73,10 @@ typedef struct cadmm_settings cadmm_settings;
 
 /**
  * A solver for one problem and its successors with the same sparsity pattern. Opaque;
- * created by `cadmm_solver_new`, released by `cadmm_solver_free`.
+ * created by `cadmm_solver_new`, released by `cadmm_solver_free`. A call that reports
+ * `CADMM_ERR_PANIC` leaves it unusable: every later call on it returns `CADMM_ERR_PANIC`
+ * (`cadmm_solver_trace_len` returns 0) and changes nothing, except
+ * `cadmm_solver_last_error` and `cadmm_solver_free`.
  */
 typedef struct cadmm_solver cadmm_solver;
 
@@ -279,7 +287,8 @@ typedef struct cadmm_csc {
 } cadmm_csc;
 
 /**
- * One recorded iteration of the last solve (see `cadmm_settings_set_trace`).
+ * One recorded iteration of the last solve (see `cadmm_settings_set_trace`); its phase is
+ * read by `cadmm_solver_get_trace_phase`.
  */
 typedef struct cadmm_trace_point {
     /**
@@ -307,6 +316,12 @@ typedef struct cadmm_trace_point {
      */
     double rho;
 } cadmm_trace_point;
+
+/**
+ * The phase a trace point belongs to, written by `cadmm_solver_get_trace_phase`: one of
+ * the `CADMM_PHASE_*` values. A plain integer like `cadmm_result`.
+ */
+typedef int32_t cadmm_phase;
 
 /**
  * The call succeeded.
@@ -360,8 +375,9 @@ typedef struct cadmm_trace_point {
 #define CADMM_ERR_UNSUPPORTED 9
 
 /**
- * An internal error (a Rust panic) was caught at the API boundary. A solver that
- * reported it is unusable afterwards and must be freed.
+ * An internal error (a Rust panic) was caught at the API boundary. A solver (one-process
+ * or distributed) that reported it is unusable afterwards: every later call on it returns
+ * this code again. Free it.
  */
 #define CADMM_ERR_PANIC 10
 
@@ -417,6 +433,16 @@ typedef struct cadmm_trace_point {
  * No solve has run yet: the status of a new solver's statistics.
  */
 #define CADMM_STATUS_UNSOLVED 6
+
+/**
+ * An ADMM iteration.
+ */
+#define CADMM_PHASE_ADMM 0
+
+/**
+ * The end of a semismooth Newton phase (its point has NaN residuals).
+ */
+#define CADMM_PHASE_NEWTON 1
 
 #ifdef __cplusplus
 extern "C" {
@@ -738,11 +764,6 @@ cadmm_result cadmm_settings_set_trace(struct cadmm_settings *s, bool on);
 cadmm_result cadmm_settings_set_newton(struct cadmm_settings *s, bool on);
 
 /**
- * Releases settings. NULL is a no-op. The handle must not be used afterwards.
- */
-void cadmm_settings_free(struct cadmm_settings *s);
-
-/**
  * Switches contact islands on or off (default on): with islands, the problem is split into
  * the connected parts of its coupling graph (bodies, contacts, joints; the blocks of W in
  * the local form), each solved on its own with its own penalty, stopping test and
@@ -752,14 +773,27 @@ void cadmm_settings_free(struct cadmm_settings *s);
 cadmm_result cadmm_settings_set_islands(struct cadmm_settings *s, bool on);
 
 /**
- * Threads that solve islands side by side (default 1: every island on the calling
- * thread, and the library starts no thread at all). With `n > 1`, each
- * `cadmm_solver_solve` of a problem with several islands starts up to `n` threads and
- * joins them before it returns (no pool is kept); an engine that owns its threads keeps
- * 1 and runs separate solvers on its own threads instead. The solution does not depend on
- * `n`. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (0, or above 256).
+ * Threads the solver may use (default 1: everything runs on the calling thread and the
+ * library starts no thread). With `n > 1`:
+ * - a problem split into several islands: each `cadmm_solver_solve` starts up to `n`
+ *   threads that solve islands side by side, and joins them before it returns;
+ * - a problem solved whole (one island, or islands off) with the matrix-free v-update and
+ *   at least 200 000 entries in M and H: `cadmm_solver_new` (or
+ *   `cadmm_solver_update_settings`) starts a pool of `n` threads for the products of the
+ *   conjugate gradients, kept (idle between solves) until the solver is freed or the
+ *   count changes;
+ * - otherwise no thread is started.
+ *
+ * An engine that owns its threads keeps 1 and runs separate solvers on its own threads
+ * instead. The solution does not depend on `n`. Errors: `CADMM_ERR_NULL_POINTER`,
+ * `CADMM_ERR_INVALID_SETTING` (0, or above 256).
  */
 cadmm_result cadmm_settings_set_threads(struct cadmm_settings *s, size_t n);
+
+/**
+ * Releases settings. NULL is a no-op. The handle must not be used afterwards.
+ */
+void cadmm_settings_free(struct cadmm_settings *s);
 
 /**
  * Creates a solver: validates the settings, picks the first rho and factorizes (symbolic
@@ -910,11 +944,14 @@ cadmm_result cadmm_solver_get_trace(const struct cadmm_solver *sv,
                                     struct cadmm_trace_point *out);
 
 /**
- * The phase of trace point `i` (`0 <= i < cadmm_solver_trace_len`): 0 for an ADMM
- * iteration, 1 for the end of a semismooth Newton phase (whose point has NaN residuals).
- * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (index out of range).
+ * The phase of trace point `i` (`0 <= i < cadmm_solver_trace_len`): `CADMM_PHASE_ADMM`
+ * for an ADMM iteration, `CADMM_PHASE_NEWTON` for the end of a semismooth Newton phase
+ * (whose point has NaN residuals). Errors: `CADMM_ERR_NULL_POINTER`,
+ * `CADMM_ERR_INVALID_VALUE` (index out of range).
  */
-cadmm_result cadmm_solver_get_trace_phase(const struct cadmm_solver *sv, size_t i, int32_t *phase);
+cadmm_result cadmm_solver_get_trace_phase(const struct cadmm_solver *sv,
+                                          size_t i,
+                                          cadmm_phase *phase);
 
 /**
  * The message of the last failed call on this solver ("" if none has failed), naming the

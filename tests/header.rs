@@ -58,3 +58,33 @@ fn header_version_matches_the_library() {
     let v = unsafe { std::ffi::CStr::from_ptr(cadmm::ffi::cadmm_version()) };
     assert_eq!(v.to_str().unwrap(), header_version);
 }
+
+/// `cadmm::ffi::*` holds the whole C API: `src/ffi/mod.rs` re-exports each module that
+/// declares part of it (a function, a struct, a constant or a type) as a whole
+/// (`pub use module::*;`), so that no list of names can fall behind.
+#[test]
+fn every_module_of_the_c_api_is_reexported_whole() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/ffi");
+    let root = std::fs::read_to_string(dir.join("mod.rs")).expect("src/ffi/mod.rs is readable");
+    let mut missing = Vec::new();
+    for entry in std::fs::read_dir(&dir).expect("src/ffi/ is readable") {
+        let path = entry.expect("a directory entry").path();
+        let Some(module) = path.file_stem().and_then(|s| s.to_str()) else {
+            continue;
+        };
+        if module == "mod" {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap_or_default();
+        let exports = ["#[no_mangle]", "pub struct ", "pub const ", "pub type "]
+            .iter()
+            .any(|item| text.contains(item));
+        if exports && !root.contains(&format!("pub use {module}::*;")) {
+            missing.push(module.to_owned());
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "src/ffi/mod.rs does not re-export these modules of the C API whole: {missing:?}"
+    );
+}

@@ -4,24 +4,25 @@
 //! the same calls in the same order: the calls marked collective communicate, and return
 //! on every process with the same result code. An error one process meets (a NULL array,
 //! a non-finite value, a contact naming a body no process owns) is every process's, with
-//! the message naming that process's rank and the item.
+//! the message naming that process's rank and the item. A NULL solver handle returns at
+//! once, on that process alone (it has no communicator to tell the others).
 //!
 //! The communicator is passed as a Fortran handle (`MPI_Fint`, from `MPI_Comm_c2f`), so
 //! that this header needs no `mpi.h`: it works with the MPI the library was built with.
 
 use super::arrays::{check_output, check_ptr, contact_len, copy, input, write_output};
-use super::panic::{catch, guard};
+use super::handle::{last_error, release, with_mut, with_ref, Boundary, Handle};
+use super::panic::guard;
 use super::result::{
     cadmm_result, cadmm_status, kind_code, status_code, Failure, FfiResult, CADMM_ERR_DIMENSION,
-    CADMM_ERR_INVALID_CSC, CADMM_ERR_INVALID_VALUE, CADMM_ERR_PANIC, CADMM_ERR_UNSUPPORTED,
+    CADMM_ERR_INVALID_CSC, CADMM_ERR_INVALID_VALUE, CADMM_ERR_UNSUPPORTED,
 };
 use super::settings::{cadmm_settings, settings_ref};
 use super::stats::cadmm_stats;
 use crate::distributed::{agree_code, DistributedSolver, RankError, RankProblem};
 use mpi::raw::FromRaw;
 use mpi::topology::SimpleCommunicator;
-use std::cell::RefCell;
-use std::ffi::{c_char, c_int, CString};
+use std::ffi::{c_char, c_int};
 use std::mem::ManuallyDrop;
 
 /// A process's part of a global problem shared out among MPI processes. Arrays are read
@@ -61,16 +62,20 @@ pub struct cadmm_rank_part {
 
 /// A solver for one problem shared out among MPI processes, each process holding its own
 /// handle. Opaque; created by `cadmm_distributed_solver_new`, released by
-/// `cadmm_distributed_solver_free`.
+/// `cadmm_distributed_solver_free`. A call that reports `CADMM_ERR_PANIC` leaves this
+/// process's handle unusable, as for `cadmm_solver`: every later call on it returns
+/// `CADMM_ERR_PANIC` at once, without communicating, except
+/// `cadmm_distributed_solver_last_error` and `cadmm_distributed_solver_free`. The other
+/// processes may be left waiting in the collective call the panic interrupted: end the job
+/// (`MPI_Abort`).
 pub struct cadmm_distributed_solver {
     solver: DistributedSolver,
-    last_error: RefCell<CString>,
+    boundary: Boundary,
 }
 
-impl cadmm_distributed_solver {
-    fn record(&self, message: &str) {
-        let text = CString::new(message.replace('\0', " ")).unwrap_or_default();
-        *self.last_error.borrow_mut() = text;
+impl Handle for cadmm_distributed_solver {
+    fn boundary(&self) -> &Boundary {
+        &self.boundary
     }
 }
 
@@ -214,7 +219,7 @@ pub unsafe extern "C" fn cadmm_distributed_solver_new(
         let solver = DistributedSolver::new(&comm, part, settings)?;
         let handle = Box::into_raw(Box::new(cadmm_distributed_solver {
             solver,
-            last_error: RefCell::new(CString::default()),
+            boundary: Boundary::default(),
         }));
         // SAFETY: checked non-NULL and aligned above.
         unsafe { out.write(handle) };
@@ -233,49 +238,6 @@ fn agreed<T>(comm: &SimpleCommunicator, local: FfiResult<T>) -> FfiResult<T> {
         Failure::new(cadmm_result::from(code), format!("rank {rank}: {message}"))
     })?;
     local
-}
-
-/// Runs a call on a solver: NULL check, panic boundary, error message. A NULL solver
-/// returns at once, on that process alone (it has no communicator to tell the others).
-///
-/// # Safety
-/// `sv`, if non-NULL, must be a live handle used by this thread only.
-unsafe fn with_solver(
-    sv: *mut cadmm_distributed_solver,
-    body: impl FnOnce(&mut cadmm_distributed_solver) -> FfiResult,
-) -> cadmm_result {
-    guard(|| {
-        check_ptr("sv", sv.cast_const())?;
-        // SAFETY: a live handle by contract.
-        let sv = unsafe { &mut *sv };
-        let outcome =
-            catch(|| body(sv)).unwrap_or_else(|panic| Err(Failure::new(CADMM_ERR_PANIC, panic)));
-        if let Err(failure) = &outcome {
-            sv.record(&failure.message);
-        }
-        outcome
-    })
-}
-
-/// [`with_solver`] for the calls that only read the solver.
-///
-/// # Safety
-/// As for [`with_solver`].
-unsafe fn with_solver_ref(
-    sv: *const cadmm_distributed_solver,
-    body: impl FnOnce(&cadmm_distributed_solver) -> FfiResult,
-) -> cadmm_result {
-    guard(|| {
-        check_ptr("sv", sv)?;
-        // SAFETY: a live handle by contract.
-        let sv = unsafe { &*sv };
-        let outcome =
-            catch(|| body(sv)).unwrap_or_else(|panic| Err(Failure::new(CADMM_ERR_PANIC, panic)));
-        if let Err(failure) = &outcome {
-            sv.record(&failure.message);
-        }
-        outcome
-    })
 }
 
 /// Starts the next solve from impulses `r` of this process's contacts (`3 n_contacts`)
@@ -304,7 +266,7 @@ pub unsafe extern "C" fn cadmm_distributed_solver_warm_start(
         Ok(())
     };
     // SAFETY: the caller's contract, forwarded.
-    unsafe { with_solver(sv, body) }
+    unsafe { with_mut(sv, body) }
 }
 
 /// Solves (collective); `*status` receives how the solve ended, the same on every
@@ -324,7 +286,7 @@ pub unsafe extern "C" fn cadmm_distributed_solver_solve(
         Ok(())
     };
     // SAFETY: the caller's contract, forwarded.
-    unsafe { with_solver(sv, body) }
+    unsafe { with_mut(sv, body) }
 }
 
 /// Copies this process's part of the solution (not collective): impulses `r` and relative
@@ -354,7 +316,7 @@ pub unsafe extern "C" fn cadmm_distributed_solver_get_solution(
         Ok(())
     };
     // SAFETY: the caller's contract, forwarded.
-    unsafe { with_solver_ref(sv, body) }
+    unsafe { with_ref(sv, body) }
 }
 
 /// Fills `*out` with the statistics of the last solve (not collective; the same on every
@@ -369,7 +331,7 @@ pub unsafe extern "C" fn cadmm_distributed_solver_get_stats(
     let body =
         |sv: &cadmm_distributed_solver| unsafe { super::solver::put_stats(out, sv.solver.stats()) };
     // SAFETY: the caller's contract, forwarded.
-    unsafe { with_solver_ref(sv, body) }
+    unsafe { with_ref(sv, body) }
 }
 
 /// The message of the last failed call on this solver ("" when none); valid until the
@@ -378,31 +340,27 @@ pub unsafe extern "C" fn cadmm_distributed_solver_get_stats(
 pub unsafe extern "C" fn cadmm_distributed_solver_last_error(
     sv: *const cadmm_distributed_solver,
 ) -> *const c_char {
-    super::panic::guard_value(std::ptr::null(), || {
-        if sv.is_null() {
-            return c"cadmm_distributed_solver_last_error: the solver pointer is NULL".as_ptr();
-        }
-        // SAFETY: a live handle by contract.
-        unsafe { (*sv).last_error.borrow().as_ptr() }
-    })
+    let if_null = c"cadmm_distributed_solver_last_error: the solver pointer is NULL";
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { last_error(sv, if_null) }
 }
 
 /// Frees a solver (NULL is a no-op). Its communicator is freed with it: call it on every
 /// process, before `MPI_Finalize`.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_distributed_solver_free(sv: *mut cadmm_distributed_solver) {
-    super::panic::guard_value((), || {
-        if !sv.is_null() {
-            // SAFETY: a handle from cadmm_distributed_solver_new, freed once by contract.
-            drop(unsafe { Box::from_raw(sv) });
-        }
-    })
+    // SAFETY: made by `cadmm_distributed_solver_new` with Box::into_raw, released once by
+    // contract.
+    unsafe { release(sv) }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::ptr::null;
+    use crate::ffi::{cadmm_settings_free, cadmm_settings_new, CADMM_ERR_PANIC, CADMM_OK};
+    use std::ffi::CStr;
+    use std::process::Command;
+    use std::ptr::{null, null_mut};
 
     fn part() -> cadmm_rank_part {
         cadmm_rank_part {
@@ -470,5 +428,109 @@ mod tests {
         let (c, m) = code(&p);
         assert_eq!(c, CADMM_ERR_DIMENSION, "{m}");
         assert!(m.contains("n_contacts"), "{m}");
+    }
+
+    const CHILD: &str = "CADMM_MPI_CHILD";
+
+    /// Runs this binary's test `name` on `np` processes under Open MPI's `mpirun` (with
+    /// `--oversubscribe`, inside a `timeout`: a hang fails), where [`CHILD`] makes it the
+    /// work of one process; their standard output.
+    fn mpirun(name: &str, np: usize) -> String {
+        let out = Command::new("timeout")
+            .args(["300", "mpirun", "--oversubscribe", "-np", &np.to_string()])
+            .arg(std::env::current_exe().expect("the test binary"))
+            .args([name, "--exact", "--nocapture", "--test-threads", "1"])
+            .env(CHILD, "1")
+            .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+            .output()
+            .expect("mpirun runs (Debian: openmpi-bin)");
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "mpirun -np {np} {name}: {:?}\n{stdout}\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        stdout
+    }
+
+    /// A panic poisons a distributed solver as it does a one-process one: after a panic
+    /// injected through the boundary both handles share (handle.rs), in a call that changes
+    /// the solver or in one that reads it, every call on it returns `CADMM_ERR_PANIC` at
+    /// once, without communicating. Each process holds one body of 3 velocities on the
+    /// ground through one contact.
+    #[test]
+    fn a_panic_poisons_the_distributed_solver() {
+        let name = "ffi::distributed::tests::a_panic_poisons_the_distributed_solver";
+        if std::env::var_os(CHILD).is_none() {
+            let out = mpirun(name, 2);
+            assert_eq!(out.matches("refused after the panic").count(), 4, "{out}");
+            return;
+        }
+        use mpi::raw::AsRaw;
+        use mpi::traits::Communicator;
+        let universe = mpi::initialize().expect("MPI starts");
+        let world = universe.world();
+        let rank = world.rank();
+        let (ids, dofs, f) = ([rank as u64], [3usize], [0.0, 0.1, -1.0]);
+        let mass = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let (colptr, h_body, h_dof) = ([0usize, 1, 2, 3], [ids[0]; 3], [0usize, 1, 2]);
+        let (h_values, w, mu) = ([1.0; 3], [0.0; 3], [0.5]);
+        let p = cadmm_rank_part {
+            n_bodies: 1,
+            body_ids: ids.as_ptr(),
+            body_dofs: dofs.as_ptr(),
+            mass: mass.as_ptr(),
+            f: f.as_ptr(),
+            n_contacts: 1,
+            h_colptr: colptr.as_ptr(),
+            h_body: h_body.as_ptr(),
+            h_dof: h_dof.as_ptr(),
+            h_values: h_values.as_ptr(),
+            w: w.as_ptr(),
+            mu: mu.as_ptr(),
+        };
+        // SAFETY: MPI is initialized and `world` is a live communicator.
+        let comm = unsafe { mpi::ffi::RSMPI_Comm_c2f(world.as_raw()) };
+        let panics: [&dyn Fn(*mut cadmm_distributed_solver) -> cadmm_result; 2] = [
+            &|sv| unsafe { with_mut(sv, |_| panic!("injected in a change")) },
+            &|sv| unsafe { with_ref(sv, |_| panic!("injected in a read")) },
+        ];
+        // SAFETY (every call below): live handles and arrays of the lengths documented.
+        unsafe {
+            let mut s = null_mut();
+            assert_eq!(cadmm_settings_new(&mut s), CADMM_OK);
+            for panic_in in panics {
+                let mut sv = null_mut();
+                assert_eq!(cadmm_distributed_solver_new(comm, &p, s, &mut sv), CADMM_OK);
+                let mut status = -1;
+                assert_eq!(cadmm_distributed_solver_solve(sv, &mut status), CADMM_OK);
+                assert_eq!(panic_in(sv), CADMM_ERR_PANIC);
+                let (mut r, mut stats) = ([7.0; 3], cadmm_stats::default());
+                stats.struct_size = std::mem::size_of::<cadmm_stats>();
+                let rcs = [
+                    cadmm_distributed_solver_warm_start(sv, r.as_ptr(), null()),
+                    cadmm_distributed_solver_warm_start(sv, null(), null()),
+                    cadmm_distributed_solver_solve(sv, &mut status),
+                    cadmm_distributed_solver_get_solution(
+                        sv,
+                        r.as_mut_ptr(),
+                        null_mut(),
+                        null_mut(),
+                    ),
+                    cadmm_distributed_solver_get_stats(sv, &mut stats),
+                ];
+                assert_eq!(rcs, [CADMM_ERR_PANIC; 5]);
+                assert_eq!((r, stats.iterations), ([7.0; 3], 0), "nothing written");
+                let text = CStr::from_ptr(cadmm_distributed_solver_last_error(sv));
+                let text = text.to_str().unwrap();
+                assert!(text.starts_with("the solver is unusable after"), "{text}");
+                assert!(text.contains("injected"), "{text}");
+                println!("rank {rank}: refused after the panic: {text}");
+                cadmm_distributed_solver_free(sv);
+            }
+            cadmm_settings_free(s);
+        }
     }
 }

@@ -34,6 +34,7 @@ mod arrays;
 pub mod csc;
 #[cfg(feature = "mpi")]
 pub mod distributed;
+mod handle;
 mod panic;
 pub mod problem;
 pub mod result;
@@ -41,36 +42,17 @@ pub mod settings;
 pub mod solver;
 pub mod stats;
 
-pub use csc::cadmm_csc;
+// Every public item of the C API under one path, `cadmm::ffi::*`, as C sees them in one
+// header. Whole modules, so that a new function needs no list kept in step (cbindgen reads
+// the modules themselves; these re-exports are for Rust callers and tests).
+pub use csc::*;
 #[cfg(feature = "mpi")]
-pub use distributed::{
-    cadmm_distributed_solver, cadmm_distributed_solver_free, cadmm_distributed_solver_get_solution,
-    cadmm_distributed_solver_get_stats, cadmm_distributed_solver_last_error,
-    cadmm_distributed_solver_new, cadmm_distributed_solver_solve,
-    cadmm_distributed_solver_warm_start, cadmm_rank_part,
-};
-pub use problem::{
-    cadmm_problem, cadmm_problem_dims, cadmm_problem_error, cadmm_problem_free,
-    cadmm_problem_new_global, cadmm_problem_new_local, cadmm_problem_read_fclib,
-    cadmm_problem_set_joints, cadmm_problem_write_fclib,
-};
+pub use distributed::*;
+pub use problem::*;
 pub use result::*;
-pub use settings::{
-    cadmm_settings, cadmm_settings_free, cadmm_settings_new, cadmm_settings_set_anderson,
-    cadmm_settings_set_initial_rho, cadmm_settings_set_linear_solver,
-    cadmm_settings_set_max_iterations, cadmm_settings_set_newton, cadmm_settings_set_s_update,
-    cadmm_settings_set_time_limit, cadmm_settings_set_tolerance, cadmm_settings_set_trace,
-    cadmm_settings_set_variant,
-};
-pub use solver::{
-    cadmm_solver, cadmm_solver_free, cadmm_solver_get_island_stats,
-    cadmm_solver_get_joint_multipliers, cadmm_solver_get_solution, cadmm_solver_get_stats,
-    cadmm_solver_get_trace, cadmm_solver_get_trace_phase, cadmm_solver_last_error,
-    cadmm_solver_new, cadmm_solver_solve, cadmm_solver_trace_len, cadmm_solver_update,
-    cadmm_solver_update_local_values, cadmm_solver_update_settings, cadmm_solver_update_values,
-    cadmm_solver_warm_start,
-};
-pub use stats::{cadmm_stats, cadmm_trace_point};
+pub use settings::*;
+pub use solver::*;
+pub use stats::*;
 
 use std::ffi::c_char;
 

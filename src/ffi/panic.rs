@@ -7,21 +7,37 @@ use std::cell::RefCell;
 use std::ffi::{c_char, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
+/// A message kept for C: a NUL-terminated copy whose pointer stays valid until the next
+/// [`ErrorText::set`]. Interior mutability, because calls through const pointers fail too.
+#[derive(Default)]
+pub(crate) struct ErrorText(RefCell<CString>);
+
+impl ErrorText {
+    /// Keeps `message` (a NUL inside it becomes a space).
+    pub(crate) fn set(&self, message: &str) {
+        *self.0.borrow_mut() = CString::new(message.replace('\0', " ")).unwrap_or_default();
+    }
+
+    /// The kept message.
+    pub(crate) fn as_ptr(&self) -> *const c_char {
+        self.0.borrow().as_ptr()
+    }
+}
+
 thread_local! {
     /// Message of the last failed call on this thread (`cadmm_last_error`).
-    static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
+    static LAST_ERROR: ErrorText = ErrorText::default();
 }
 
 /// Records `message` as this thread's last error.
 fn set_last_error(message: &str) {
-    let text = CString::new(message.replace('\0', " ")).unwrap_or_default();
-    LAST_ERROR.with(|e| *e.borrow_mut() = text);
+    LAST_ERROR.with(|e| e.set(message));
 }
 
 /// This thread's last error message; the pointer stays valid until the next failed call on
 /// this thread.
 pub(crate) fn last_error() -> *const c_char {
-    LAST_ERROR.with(|e| e.borrow().as_ptr())
+    LAST_ERROR.with(ErrorText::as_ptr)
 }
 
 /// Runs the body of a function that returns a `cadmm_result`; a failure's message becomes
@@ -46,8 +62,8 @@ pub(crate) fn guard_value<T>(on_panic: T, body: impl FnOnce() -> T) -> T {
     catch_unwind(AssertUnwindSafe(body)).unwrap_or(on_panic)
 }
 
-/// Runs a body and hands back a panic as its message, for callers (the solver) that keep
-/// the text for `cadmm_solver_last_error`.
+/// Runs a body and hands back a panic as its message, for the handles that keep the text
+/// for their own last error (`handle.rs`).
 pub(crate) fn catch<T>(body: impl FnOnce() -> T) -> Result<T, String> {
     catch_unwind(AssertUnwindSafe(body)).map_err(|payload| panic_message(payload.as_ref()))
 }

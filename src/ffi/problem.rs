@@ -2,7 +2,8 @@
 
 use super::arrays::{check_ptr, contact_len, copy, input, path};
 use super::csc::{cadmm_csc, read_csc, Shape};
-use super::panic::{guard, guard_value};
+use super::handle::release;
+use super::panic::guard;
 use super::result::{cadmm_result, Failure, FfiResult, CADMM_ERR_UNSUPPORTED};
 use crate::measure::problem_error;
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
@@ -296,10 +297,7 @@ pub unsafe extern "C" fn cadmm_problem_dims(
 /// Releases a problem. NULL is a no-op. The handle must not be used afterwards.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_problem_free(p: *mut cadmm_problem) {
-    guard_value((), || {
-        if !p.is_null() {
-            // SAFETY: created by Box::into_raw in this module, freed once by contract.
-            drop(unsafe { Box::from_raw(p) });
-        }
-    })
+    // SAFETY: made with Box::into_raw by `cadmm_problem_new_global`, `_new_local` or
+    // `_read_fclib`, released once by contract.
+    unsafe { release(p) }
 }

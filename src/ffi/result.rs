@@ -28,8 +28,9 @@ pub const CADMM_ERR_IO: cadmm_result = 8;
 /// The operation does not apply (FCLib I/O in a build without it, joints on a local
 /// problem, updating a solver with a problem of the other form).
 pub const CADMM_ERR_UNSUPPORTED: cadmm_result = 9;
-/// An internal error (a Rust panic) was caught at the API boundary. A solver that
-/// reported it is unusable afterwards and must be freed.
+/// An internal error (a Rust panic) was caught at the API boundary. A solver (one-process
+/// or distributed) that reported it is unusable afterwards: every later call on it returns
+/// this code again. Free it.
 pub const CADMM_ERR_PANIC: cadmm_result = 10;
 /// A new problem or new values do not have the sparsity pattern the solver was built for
 /// (same sizes, other non-zero positions): build a new solver instead.

@@ -1,7 +1,8 @@
 //! `cadmm_settings`: solver settings, each value validated when it is set.
 
 use super::arrays::{check_ptr, utf8};
-use super::panic::{guard, guard_value};
+use super::handle::release;
+use super::panic::guard;
 use super::result::{cadmm_result, Failure, FfiResult, CADMM_ERR_INVALID_SETTING};
 use crate::admm::SUpdate;
 use crate::settings::InitialRho;
@@ -21,6 +22,19 @@ impl cadmm_settings {
     pub fn settings(&self) -> &Settings {
         &self.inner
     }
+}
+
+/// Borrows a settings handle.
+///
+/// # Safety
+/// `s`, if non-NULL, must come from this library and not be freed.
+pub(crate) unsafe fn settings_ref<'a>(
+    what: &str,
+    s: *const cadmm_settings,
+) -> FfiResult<&'a Settings> {
+    check_ptr(what, s)?;
+    // SAFETY: a live handle by contract.
+    Ok(unsafe { &(*s).inner })
 }
 
 /// Applies `change` to a copy of the settings and keeps it only if it validates, so a
@@ -274,30 +288,6 @@ pub unsafe extern "C" fn cadmm_settings_set_newton(
     }
 }
 
-/// Releases settings. NULL is a no-op. The handle must not be used afterwards.
-#[no_mangle]
-pub unsafe extern "C" fn cadmm_settings_free(s: *mut cadmm_settings) {
-    guard_value((), || {
-        if !s.is_null() {
-            // SAFETY: created by Box::into_raw in this module, freed once by contract.
-            drop(unsafe { Box::from_raw(s) });
-        }
-    })
-}
-
-/// Borrows a settings handle.
-///
-/// # Safety
-/// `s`, if non-NULL, must come from this library and not be freed.
-pub(crate) unsafe fn settings_ref<'a>(
-    what: &str,
-    s: *const cadmm_settings,
-) -> FfiResult<&'a Settings> {
-    check_ptr(what, s)?;
-    // SAFETY: a live handle by contract.
-    Ok(unsafe { &(*s).inner })
-}
-
 /// Switches contact islands on or off (default on): with islands, the problem is split into
 /// the connected parts of its coupling graph (bodies, contacts, joints; the blocks of W in
 /// the local form), each solved on its own with its own penalty, stopping test and
@@ -317,12 +307,20 @@ pub unsafe extern "C" fn cadmm_settings_set_islands(
     }
 }
 
-/// Threads that solve islands side by side (default 1: every island on the calling
-/// thread, and the library starts no thread at all). With `n > 1`, each
-/// `cadmm_solver_solve` of a problem with several islands starts up to `n` threads and
-/// joins them before it returns (no pool is kept); an engine that owns its threads keeps
-/// 1 and runs separate solvers on its own threads instead. The solution does not depend on
-/// `n`. Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_SETTING` (0, or above 256).
+/// Threads the solver may use (default 1: everything runs on the calling thread and the
+/// library starts no thread). With `n > 1`:
+/// - a problem split into several islands: each `cadmm_solver_solve` starts up to `n`
+///   threads that solve islands side by side, and joins them before it returns;
+/// - a problem solved whole (one island, or islands off) with the matrix-free v-update and
+///   at least 200 000 entries in M and H: `cadmm_solver_new` (or
+///   `cadmm_solver_update_settings`) starts a pool of `n` threads for the products of the
+///   conjugate gradients, kept (idle between solves) until the solver is freed or the
+///   count changes;
+/// - otherwise no thread is started.
+///
+/// An engine that owns its threads keeps 1 and runs separate solvers on its own threads
+/// instead. The solution does not depend on `n`. Errors: `CADMM_ERR_NULL_POINTER`,
+/// `CADMM_ERR_INVALID_SETTING` (0, or above 256).
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_settings_set_threads(
     s: *mut cadmm_settings,
@@ -335,4 +333,11 @@ pub unsafe extern "C" fn cadmm_settings_set_threads(
             Ok(())
         })
     }
+}
+
+/// Releases settings. NULL is a no-op. The handle must not be used afterwards.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_settings_free(s: *mut cadmm_settings) {
+    // SAFETY: made with Box::into_raw by `cadmm_settings_new`, released once by contract.
+    unsafe { release(s) }
 }

@@ -1,7 +1,7 @@
 //! `cadmm_stats` and `cadmm_trace_point`: what a solve reports.
 
 use super::result::{cadmm_status, status_code};
-use crate::types::{Stats, TracePoint};
+use crate::types::{Phase, Stats, TracePoint};
 use std::mem::{offset_of, size_of};
 
 /// Summary of the last solve, filled by `cadmm_solver_get_stats`.
@@ -140,7 +140,8 @@ pub(crate) unsafe fn write_stats(dst: *mut cadmm_stats, size: usize, src: &cadmm
     );
 }
 
-/// One recorded iteration of the last solve (see `cadmm_settings_set_trace`).
+/// One recorded iteration of the last solve (see `cadmm_settings_set_trace`); its phase is
+/// read by `cadmm_solver_get_trace_phase`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default)]
 pub struct cadmm_trace_point {
@@ -168,5 +169,22 @@ impl From<&TracePoint> for cadmm_trace_point {
             dual_residual: t.dual_residual,
             rho: t.rho,
         }
+    }
+}
+
+/// The phase a trace point belongs to, written by `cadmm_solver_get_trace_phase`: one of
+/// the `CADMM_PHASE_*` values. A plain integer like `cadmm_result`.
+pub type cadmm_phase = i32;
+
+/// An ADMM iteration.
+pub const CADMM_PHASE_ADMM: cadmm_phase = 0;
+/// The end of a semismooth Newton phase (its point has NaN residuals).
+pub const CADMM_PHASE_NEWTON: cadmm_phase = 1;
+
+/// The C code of a [`Phase`].
+pub(crate) fn phase_code(phase: Phase) -> cadmm_phase {
+    match phase {
+        Phase::Admm => CADMM_PHASE_ADMM,
+        Phase::Newton => CADMM_PHASE_NEWTON,
     }
 }

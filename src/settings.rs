@@ -106,9 +106,13 @@ pub struct Settings {
     /// Split the problem into its contact islands and solve each on its own
     /// (docs/algorithms.md §12). Default on.
     pub islands: bool,
-    /// Threads that solve islands side by side: 1 (the default) solves them one after the
-    /// other on the caller's thread; more starts that many scoped threads for each solve
-    /// that has several islands (no pool is kept). The results do not depend on it.
+    /// Threads the solver may use: 1 (the default) runs everything on the caller's thread.
+    /// With more, a solve of several islands starts up to that many scoped threads that
+    /// solve them side by side and joins them before it returns; a problem solved whole
+    /// with the matrix-free v-update and at least 200 000 entries in M and H gets a pool of
+    /// that many threads for its products when the solver is built (or its settings
+    /// updated), kept until the solver is dropped or the count changes. The results do
+    /// not depend on it.
     pub threads: usize,
     /// How the v-update systems are solved. Default `Auto`.
     pub linear_solver: LinearSolver,

@@ -359,7 +359,6 @@ mod tests {
     use super::*;
     use crate::ffi::{cadmm_settings_free, cadmm_settings_new, CADMM_ERR_PANIC, CADMM_OK};
     use std::ffi::CStr;
-    use std::process::Command;
     use std::ptr::{null, null_mut};
 
     fn part() -> cadmm_rank_part {
@@ -430,31 +429,6 @@ mod tests {
         assert!(m.contains("n_contacts"), "{m}");
     }
 
-    const CHILD: &str = "CADMM_MPI_CHILD";
-
-    /// Runs this binary's test `name` on `np` processes under Open MPI's `mpirun` (with
-    /// `--oversubscribe`, inside a `timeout`: a hang fails), where [`CHILD`] makes it the
-    /// work of one process; their standard output.
-    fn mpirun(name: &str, np: usize) -> String {
-        let out = Command::new("timeout")
-            .args(["300", "mpirun", "--oversubscribe", "-np", &np.to_string()])
-            .arg(std::env::current_exe().expect("the test binary"))
-            .args([name, "--exact", "--nocapture", "--test-threads", "1"])
-            .env(CHILD, "1")
-            .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-            .output()
-            .expect("mpirun runs (Debian: openmpi-bin)");
-        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-        assert!(
-            out.status.success(),
-            "mpirun -np {np} {name}: {:?}\n{stdout}\n{}",
-            out.status,
-            String::from_utf8_lossy(&out.stderr)
-        );
-        stdout
-    }
-
     /// A panic poisons a distributed solver as it does a one-process one: after a panic
     /// injected through the boundary both handles share (handle.rs), in a call that changes
     /// the solver or in one that reads it, every call on it returns `CADMM_ERR_PANIC` at
@@ -463,8 +437,8 @@ mod tests {
     #[test]
     fn a_panic_poisons_the_distributed_solver() {
         let name = "ffi::distributed::tests::a_panic_poisons_the_distributed_solver";
-        if std::env::var_os(CHILD).is_none() {
-            let out = mpirun(name, 2);
+        if !crate::distributed::mpirun::is_child() {
+            let out = crate::distributed::mpirun::run(name, 2, &[]);
             assert_eq!(out.matches("refused after the panic").count(), 4, "{out}");
             return;
         }

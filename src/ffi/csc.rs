@@ -81,12 +81,36 @@ pub(crate) unsafe fn read_csc(
         .ncols
         .checked_add(1)
         .ok_or_else(|| invalid(field, format!("ncols = {} is too large", m.ncols)))?;
+    let colptr = unsafe { read_colptr(field, &m, ncols1)? };
+    let nnz = colptr[m.ncols];
+    let rowind_name = format!("{field}.rowind");
+    // SAFETY: nnz entries each by contract (NULL allowed only when nnz == 0).
+    let rowind_c = unsafe { input(&rowind_name, m.rowind, nnz)? };
+    let mut rowind = try_vec::<usize>(&rowind_name, nnz)?;
+    for (k, &i) in rowind_c.iter().enumerate() {
+        let i = usize::try_from(i)
+            .map_err(|_| invalid(field, format!("row index {i} at entry {k} is negative")))?;
+        rowind.push(i);
+    }
+    // SAFETY: as above.
+    let values = unsafe { copy(&format!("{field}.values"), m.values, nnz)? };
+    Ok(CscMatrix::new(
+        field, m.nrows, m.ncols, colptr, rowind, values,
+    )?)
+}
+
+/// The `ncols + 1` column pointers of `m`, checked before they size or index anything:
+/// non-negative, starting at 0, never decreasing, at most `nrows` entries a column (more
+/// is a duplicate or a pointer past the caller's arrays).
+///
+/// # Safety
+/// `m.colptr` is NULL or points to `ncols1 = m.ncols + 1` readable entries.
+unsafe fn read_colptr(field: &'static str, m: &cadmm_csc, ncols1: usize) -> FfiResult<Vec<usize>> {
     let colptr_name = format!("{field}.colptr");
     check_ptr(&colptr_name, m.colptr)?;
     let mut colptr = try_vec::<usize>(&colptr_name, ncols1)?;
     // SAFETY: ncols + 1 entries by contract (non-NULL, checked above).
     let colptr_c = unsafe { input(&colptr_name, m.colptr, ncols1)? };
-    // At most nrows entries a column: more is a duplicate or a pointer past the arrays.
     if let Some(most) = m.nrows.checked_mul(m.ncols) {
         let last = colptr_c[m.ncols];
         if usize::try_from(last).is_ok_and(|last| last > most) {
@@ -128,19 +152,5 @@ pub(crate) unsafe fn read_csc(
         }
         colptr.push(p);
     }
-    let nnz = colptr[m.ncols];
-    let rowind_name = format!("{field}.rowind");
-    // SAFETY: nnz entries each by contract (NULL allowed only when nnz == 0).
-    let rowind_c = unsafe { input(&rowind_name, m.rowind, nnz)? };
-    let mut rowind = try_vec::<usize>(&rowind_name, nnz)?;
-    for (k, &i) in rowind_c.iter().enumerate() {
-        let i = usize::try_from(i)
-            .map_err(|_| invalid(field, format!("row index {i} at entry {k} is negative")))?;
-        rowind.push(i);
-    }
-    // SAFETY: as above.
-    let values = unsafe { copy(&format!("{field}.values"), m.values, nnz)? };
-    Ok(CscMatrix::new(
-        field, m.nrows, m.ncols, colptr, rowind, values,
-    )?)
+    Ok(colptr)
 }

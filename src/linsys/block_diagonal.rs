@@ -6,7 +6,7 @@
 use super::dense::{cholesky, cholesky_solve};
 use super::DENSE_MAX;
 use crate::csc::CscMatrix;
-use crate::islands::DisjointSets;
+use crate::disjoint_sets::DisjointSets;
 use crate::types::Error;
 
 /// `(M + M^T) / 2 = L L^T` block by block. Block `b` spans the rows and columns

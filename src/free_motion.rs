@@ -4,9 +4,9 @@
 //! densely on its own, so a scene with thousands of free bodies pays for them in
 //! proportion, not for a sparse analysis of all of them together.
 
+use crate::dense::{cholesky, cholesky_solve, is_symmetric};
 use crate::disjoint_sets::DisjointSets;
 use crate::islands::Part;
-use crate::linsys::dense::{cholesky, cholesky_solve, is_symmetric};
 use crate::linsys::DENSE_MAX;
 use crate::measure::{Floors, GlobalTerms, Scales};
 use crate::problem::GlobalProblem;

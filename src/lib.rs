@@ -28,6 +28,7 @@ mod cone;
 mod contact;
 mod coupled;
 mod csc;
+mod dense;
 mod disjoint_sets;
 #[cfg(feature = "mpi")]
 pub mod distributed;

@@ -11,8 +11,8 @@
 
 use crate::certificate::local_run_off;
 use crate::csc::CscMatrix;
+use crate::dense::{cholesky, cholesky_solve, is_symmetric};
 use crate::islands::{contact_rows, Part};
-use crate::linsys::dense::{cholesky, cholesky_solve, is_symmetric};
 use crate::linsys::DENSE_MAX;
 use crate::measure::{local_error_with, Floors, GlobalTerms, MeasureWork, Scales};
 use crate::newton::{LocalNewton, NewtonOutcome};

@@ -9,7 +9,7 @@
 use super::halo::{agree, agree_on, Halo};
 use super::problem::{RankError, RankProblem};
 use crate::csc::{dot, CscMatrix};
-use crate::linsys::dense::spd_inverse;
+use crate::dense::spd_inverse;
 use crate::linsys::{
     conjugate_gradients, CgSystem, CgWork, ContactColumns, PcgOutcome, PcgStop, Workers, BLOCK_MAX,
 };

@@ -3,9 +3,9 @@
 //! 3 x 3 or diagonal). Each block is factorized densely on its own, with no sparse
 //! analysis, no assembly and no ordering: a new solver checks M in microseconds.
 
-use super::dense::{cholesky, cholesky_solve};
 use super::DENSE_MAX;
 use crate::csc::CscMatrix;
+use crate::dense::{cholesky, cholesky_solve};
 use crate::disjoint_sets::DisjointSets;
 use crate::types::Error;
 

@@ -7,26 +7,28 @@
 
 mod block_diagonal;
 mod contact_columns;
-pub(crate) mod dense;
+mod dense_factor;
 mod gram_product;
 pub mod param_matrix;
 mod pcg;
 mod sparse_factor;
 mod workers;
 
+pub use crate::tuning::DENSE_MAX;
 pub use block_diagonal::BlockDiagonal;
 pub(crate) use contact_columns::ContactRows;
-use dense::DenseFactor;
-pub use dense::DENSE_MAX;
+use dense_factor::DenseFactor;
 pub use gram_product::GramProduct;
 pub use param_matrix::ParamMatrix;
 pub use pcg::{Gram, GramPcg, PcgStop};
 pub use sparse_factor::{FactorKind, SparseFactor};
 // What the distributed v-update system shares with one process's iterative backend.
 #[cfg(feature = "mpi")]
+pub(crate) use crate::tuning::BLOCK_MAX;
+#[cfg(feature = "mpi")]
 pub(crate) use contact_columns::ContactColumns;
 #[cfg(feature = "mpi")]
-pub(crate) use pcg::{conjugate_gradients, CgSystem, CgWork, PcgOutcome, BLOCK_MAX};
+pub(crate) use pcg::{conjugate_gradients, CgSystem, CgWork, PcgOutcome};
 #[cfg(feature = "mpi")]
 pub(crate) use workers::Workers;
 

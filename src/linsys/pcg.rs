@@ -10,17 +10,13 @@
 
 use super::block_diagonal::components;
 use super::contact_columns::ContactColumns;
-use super::dense::spd_inverse;
 use super::workers::Workers;
 use crate::csc::{dot, CscMatrix, RowMajor};
-use crate::tuning::{PARALLEL_MIN_ENTRIES, PCG_TRUE_RESIDUAL_EVERY};
+use crate::dense::spd_inverse;
+use crate::tuning::{BLOCK_MAX, PARALLEL_MIN_ENTRIES, PCG_TRUE_RESIDUAL_EVERY};
 use crate::types::Error;
 use std::ops::Range;
 use std::time::Instant;
-
-/// Largest diagonal block the preconditioner factorizes (a rigid body has 6 velocities; a
-/// body with a few extra coordinates still fits).
-pub const BLOCK_MAX: usize = 12;
 
 /// The operator's data: `M`, `H` and the active contact rows `D` (1 or 0 each).
 #[derive(Clone, Copy)]

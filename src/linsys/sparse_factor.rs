@@ -2,6 +2,7 @@
 
 use super::param_matrix::Assembly;
 use super::ParamMatrix;
+use crate::tuning::{FACTOR_CACHE, LDLT_PIVOT_MIN, LDLT_PIVOT_REPLACEMENT};
 use crate::types::Error;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
@@ -37,9 +38,6 @@ enum Numeric {
     Cholesky(Vec<f64>),
     Lu(Box<NumericLu<usize, f64>>),
 }
-
-/// Number of numeric factors kept for recently used rho values.
-const CACHE: usize = 3;
 
 /// Factorization of `A(rho)`; `set_rho` refactorizes numerically (or reuses a cached factor),
 /// `solve_in_place` solves without allocating.
@@ -100,7 +98,7 @@ impl SparseFactor {
         };
         // Factor storage is made by the factorizations that need it (a system whose rho
         // never changes holds one factor, not the cache's worth) and recycled after.
-        let spare = Vec::with_capacity(CACHE);
+        let spare = Vec::with_capacity(FACTOR_CACHE);
         Ok(Self {
             kind,
             name,
@@ -108,7 +106,7 @@ impl SparseFactor {
             matrix,
             symbolic,
             signs,
-            cache: Vec::with_capacity(CACHE),
+            cache: Vec::with_capacity(FACTOR_CACHE),
             spare,
             mem: MemBuffer::new(req),
             probe: vec![0.0; n],
@@ -178,7 +176,7 @@ impl SparseFactor {
         // a change of rho inside the iteration does not allocate factor storage.
         match self.spare.pop() {
             Some(n) => Some(n),
-            None if self.cache.len() == CACHE => Some(self.cache.remove(0).1),
+            None if self.cache.len() == FACTOR_CACHE => Some(self.cache.remove(0).1),
             None => None,
         }
     }
@@ -302,8 +300,8 @@ fn factorize_ldlt(
     let mut l = cholesky_storage(s, recycled);
     let reg = LdltRegularization {
         dynamic_regularization_signs: Some(signs),
-        dynamic_regularization_delta: 1e-10,
-        dynamic_regularization_epsilon: 1e-13,
+        dynamic_regularization_delta: LDLT_PIVOT_REPLACEMENT,
+        dynamic_regularization_epsilon: LDLT_PIVOT_MIN,
     };
     s.factorize_numeric_ldlt(
         &mut l,

@@ -3,7 +3,7 @@
 //! values and refactorizes numerically. Systems of at most [`DENSE_MAX`] unknowns are
 //! factorized densely instead (a small local problem, an island of a few contacts).
 
-use crate::linsys::dense::{lu, lu_solve};
+use crate::dense::{lu, lu_solve};
 use crate::linsys::DENSE_MAX;
 use crate::types::Error;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};

@@ -4,6 +4,12 @@
 //! rho only refactorizes numerically, and the last few numeric factors are kept so that a
 //! rho rule that oscillates between two values does not refactorize back and forth. Small
 //! ones (an island of a few contacts) are factorized densely.
+//!
+//! Beside them, the other factorizations of the solver: [`BlockDiagonal`], symmetric
+//! positive definite matrices made of small dense blocks (a mass matrix, the block Jacobi
+//! preconditioner of the iterative backend, a small island's M), and [`Lu`], LU with
+//! partial pivoting on a fixed pattern (the Newton systems). Their dense kernels are in
+//! [`crate::dense`].
 
 mod block_diagonal;
 mod contact_columns;

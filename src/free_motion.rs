@@ -4,9 +4,8 @@
 //! densely on its own, so a scene with thousands of free bodies pays for them in
 //! proportion, not for a sparse analysis of all of them together.
 
-use crate::islands::{DisjointSets, Part};
-use crate::linsys::dense::{cholesky, cholesky_solve, is_symmetric};
-use crate::linsys::DENSE_MAX;
+use crate::islands::Part;
+use crate::linsys::{BlockDiagonal, DENSE_MAX};
 use crate::measure::{Floors, GlobalTerms, Scales};
 use crate::problem::GlobalProblem;
 use crate::types::Solution;
@@ -14,28 +13,16 @@ use crate::types::Stats;
 use crate::types::{Error, Status};
 use std::time::Instant;
 
-/// One block of M: its velocities are `order[start..start + size]` (positions in the
-/// part), its column-major dense block at `factors[at..at + size * size]`.
-#[derive(Debug, Clone, Copy)]
-struct Block {
-    start: usize,
-    size: usize,
-    at: usize,
-}
-
 /// `v = M^-1 f` on the free velocities, block by block.
 pub(crate) struct FreeMotion {
-    blocks: Vec<Block>,
-    order: Vec<usize>,
-    /// The blocks of M as given, then (after [`FreeMotion::take_values`]) their factors.
-    m: Vec<f64>,
-    factors: Vec<f64>,
+    /// The blocks of M as given (over the velocities' positions in the part), and their
+    /// factors.
+    mass: BlockDiagonal,
     f: Vec<f64>,
     v: Vec<f64>,
-    /// Work vectors of the measure and the block solves.
+    /// Work vectors of the measure.
     mv: Vec<f64>,
     zeros: Vec<f64>,
-    x: Vec<f64>,
     broken: Option<Error>,
     floors: Floors,
     stats: Stats,
@@ -55,96 +42,44 @@ impl FreeMotion {
             return Ok(None);
         }
         let n = part.velocities.len();
-        // Blocks: connected components of M's pattern among the part's velocities (an
-        // entry joins its row and its column, whether or not its mirror is stored).
-        let mut sets = DisjointSets::new(n);
-        for (k, &j) in part.velocities.iter().enumerate() {
-            for (i, _) in whole.m.col(j) {
-                sets.union(k, row_of[i]);
-            }
-        }
-        let mut order: Vec<usize> = (0..n).collect();
-        let roots: Vec<usize> = (0..n).map(|k| sets.find(k)).collect();
-        // Grouped by block (blocks in the order of their smallest velocity), increasing
-        // within a block.
-        let mut first = vec![usize::MAX; n];
-        for k in 0..n {
-            first[roots[k]] = first[roots[k]].min(k);
-        }
-        order.sort_by_key(|&k| (first[roots[k]], k));
-        let mut blocks = Vec::new();
-        let mut at = 0;
-        let mut start = 0;
-        while start < n {
-            let root = roots[order[start]];
-            let size = order[start..]
-                .iter()
-                .take_while(|&&k| roots[k] == root)
-                .count();
-            if size > DENSE_MAX {
-                return Ok(None);
-            }
-            blocks.push(Block { start, size, at });
-            at += size * size;
-            start += size;
+        // Blocks: connected components of M's pattern among the part's velocities.
+        let entries = part.velocities.iter().enumerate();
+        let entries = entries.flat_map(|(k, &j)| whole.m.col(j).map(move |(i, _)| (k, row_of[i])));
+        let (mass, split) = BlockDiagonal::components(n, DENSE_MAX, entries);
+        if split {
+            return Ok(None);
         }
         let mut free = Self {
-            blocks,
-            order,
-            m: vec![0.0; at],
-            factors: vec![0.0; at],
+            mass,
             f: vec![0.0; n],
             v: vec![0.0; n],
             mv: vec![0.0; n],
             zeros: vec![0.0; n],
-            x: Vec::with_capacity(DENSE_MAX),
             broken: None,
             floors: Floors::default(),
             stats: Stats::default(),
         };
         free.read(whole, part, row_of);
-        if !free.symmetric() {
+        if !free.mass.is_symmetric() {
             return Ok(None);
         }
-        free.factorize()?;
+        free.mass.cholesky("M")?;
         free.stats.setup_seconds = t0.elapsed().as_secs_f64();
         Ok(Some(free))
     }
 
     /// Copies the blocks of M and f out of the whole problem.
     fn read(&mut self, whole: &GlobalProblem, part: &Part, row_of: &[usize]) {
-        for b in &self.blocks {
-            let velocities = &self.order[b.start..b.start + b.size];
-            let block = &mut self.m[b.at..b.at + b.size * b.size];
-            block.fill(0.0);
-            for (col, &k) in velocities.iter().enumerate() {
-                for (i, x) in whole.m.col(part.velocities[k]) {
-                    let row = velocities
-                        .binary_search(&row_of[i])
-                        .expect("a block holds the rows of its columns");
-                    block[row + col * b.size] = x;
-                }
+        self.mass.matrix_mut().fill(0.0);
+        for (k, &j) in part.velocities.iter().enumerate() {
+            for (i, x) in whole.m.col(j) {
+                let at = self.mass.slot(row_of[i], k);
+                self.mass.matrix_mut()[at.expect("a block holds the rows of its columns")] = x;
             }
         }
         for (f, &i) in self.f.iter_mut().zip(&part.velocities) {
             *f = whole.f[i];
         }
-    }
-
-    fn symmetric(&self) -> bool {
-        self.blocks
-            .iter()
-            .all(|b| is_symmetric(&self.m[b.at..b.at + b.size * b.size], b.size))
-    }
-
-    fn factorize(&mut self) -> Result<(), Error> {
-        self.factors.copy_from_slice(&self.m);
-        for b in &self.blocks {
-            if !cholesky(&mut self.factors[b.at..b.at + b.size * b.size], b.size) {
-                return Err(Error::NotPositiveDefinite { field: "M" });
-            }
-        }
-        Ok(())
     }
 
     /// Takes the whole problem's current values (same pattern).
@@ -155,7 +90,7 @@ impl FreeMotion {
         row_of: &[usize],
     ) -> Result<(), Error> {
         self.read(whole, part, row_of);
-        let done = self.factorize();
+        let done = self.mass.cholesky("M");
         self.broken = done.as_ref().err().cloned();
         done
     }
@@ -171,24 +106,12 @@ impl FreeMotion {
         if let Some(e) = &self.broken {
             return Err(e.clone());
         }
-        let (mv, x) = (&mut self.mv, &mut self.x);
-        mv.fill(0.0);
-        for b in &self.blocks {
-            let velocities = &self.order[b.start..b.start + b.size];
-            x.clear();
-            x.extend(velocities.iter().map(|&k| self.f[k]));
-            cholesky_solve(&self.factors[b.at..b.at + b.size * b.size], b.size, x);
-            let block = &self.m[b.at..b.at + b.size * b.size];
-            for (col, &k) in velocities.iter().enumerate() {
-                self.v[k] = x[col];
-                for (row, &l) in velocities.iter().enumerate() {
-                    mv[l] += block[row + col * b.size] * x[col];
-                }
-            }
-        }
+        self.v.copy_from_slice(&self.f);
+        self.mass.solve_in_place(&mut self.v);
+        self.mass.mul(&self.v, &mut self.mv);
         let terms = GlobalTerms {
             f: &self.f,
-            mv,
+            mv: &self.mv,
             hr: &self.zeros,
             u: &[],
             r: &[],

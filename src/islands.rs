@@ -7,43 +7,10 @@
 //! zero couples), so a partition holds for every update on the same pattern.
 
 use crate::csc::CscMatrix;
+// The partition of a distributed problem finds its components with them too.
+pub(crate) use crate::disjoint_sets::DisjointSets;
 use crate::problem::{GlobalProblem, LocalProblem, NewValues, Problem};
 use crate::types::Error;
-
-/// Disjoint sets over `0..n` (union by size, path halving).
-pub(crate) struct DisjointSets {
-    parent: Vec<usize>,
-    size: Vec<usize>,
-}
-
-impl DisjointSets {
-    pub fn new(n: usize) -> Self {
-        Self {
-            parent: (0..n).collect(),
-            size: vec![1; n],
-        }
-    }
-
-    pub fn find(&mut self, mut x: usize) -> usize {
-        while self.parent[x] != x {
-            self.parent[x] = self.parent[self.parent[x]];
-            x = self.parent[x];
-        }
-        x
-    }
-
-    pub fn union(&mut self, a: usize, b: usize) {
-        let (mut a, mut b) = (self.find(a), self.find(b));
-        if a == b {
-            return;
-        }
-        if self.size[a] < self.size[b] {
-            std::mem::swap(&mut a, &mut b);
-        }
-        self.parent[b] = a;
-        self.size[a] += self.size[b];
-    }
-}
 
 /// One part of a problem: the indices it holds in the whole problem, increasing, and where
 /// each stored matrix entry of its sub-problem comes from in the whole problem's storage.

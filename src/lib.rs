@@ -28,6 +28,8 @@ mod cone;
 mod contact;
 mod coupled;
 mod csc;
+mod dense;
+mod disjoint_sets;
 #[cfg(feature = "mpi")]
 pub mod distributed;
 #[cfg(feature = "fclib")]

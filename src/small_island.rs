@@ -12,8 +12,7 @@
 use crate::certificate::local_run_off;
 use crate::csc::CscMatrix;
 use crate::islands::{contact_rows, Part};
-use crate::linsys::dense::{cholesky, cholesky_solve, is_symmetric};
-use crate::linsys::DENSE_MAX;
+use crate::linsys::{BlockDiagonal, DENSE_MAX};
 use crate::measure::{local_error_with, Floors, GlobalTerms, MeasureWork, Scales};
 use crate::newton::{LocalNewton, NewtonOutcome};
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
@@ -174,10 +173,9 @@ pub(crate) struct SmallWork {
     hr: Vec<f64>,
     u: Vec<f64>,
     v: Vec<f64>,
-    /// A global island's dense M, its factor and dense H, while its Delassus form is
-    /// formed.
-    m: Vec<f64>,
-    chol: Vec<f64>,
+    /// A global island's M (one dense block) with its factor, and its dense H, while its
+    /// Delassus form is formed.
+    mass: BlockDiagonal,
     h: Vec<f64>,
 }
 
@@ -323,36 +321,25 @@ impl SmallIsland {
             }
             Problem::Global(g) => g,
         };
-        work.m.resize(n * n, 0.0);
-        work.chol.resize(n * n, 0.0);
+        let mass = &mut work.mass;
+        mass.reshape_one(n);
         work.h.resize(n * m, 0.0);
-        scatter_columns(
-            &g.m,
-            part.velocities.iter().copied(),
-            row_of,
-            n,
-            &mut work.m,
-        );
-        if need_symmetric && !is_symmetric(&work.m, n) {
+        let velocities = part.velocities.iter().copied();
+        scatter_columns(&g.m, velocities, row_of, n, mass.matrix_mut());
+        if need_symmetric && !mass.is_symmetric() {
             return Ok(false);
         }
-        for j in 0..n {
-            for i in 0..n {
-                work.chol[i + j * n] = 0.5 * (work.m[i + j * n] + work.m[j + i * n]);
-            }
-        }
-        if !cholesky(&mut work.chol, n) {
-            return Err(Error::NotPositiveDefinite { field: "M" });
-        }
+        mass.symmetrize();
+        mass.cholesky("M")?;
         scatter_columns(&g.h, contact_rows(&part.contacts), row_of, n, &mut work.h);
         d[minv_h.clone()].copy_from_slice(&work.h);
         for col in d[minv_h.clone()].chunks_exact_mut(n.max(1)) {
-            cholesky_solve(&work.chol, n, col);
+            mass.solve_in_place(col);
         }
         for (dst, &i) in d[minv_f.clone()].iter_mut().zip(&part.velocities) {
             *dst = g.f[i];
         }
-        cholesky_solve(&work.chol, n, &mut d[minv_f.clone()]);
+        mass.solve_in_place(&mut d[minv_f.clone()]);
         // W = H^T (M^-1 H), q = H^T (M^-1 f) + w.
         for j in 0..m {
             for i in 0..m {

@@ -253,6 +253,36 @@ pub const SHARED_ROWS_MAX_STORED: f64 = 1.5;
 /// them against 8 416 with them removed.
 pub const SCREEN_RATIO: f64 = 1e-3;
 
+// Factorizations and small dense solves.
+
+/// Numeric factors of a sparse x-update system kept for recently used rho values: a rho
+/// rule that moves back to a value it left (or oscillates between two) finds its factor
+/// instead of refactorizing, and a third covers the step between them. Each holds the
+/// whole fill, so more would cost memory for a rare reuse (see [`FACTOR_MAX_ENTRIES`]).
+pub const FACTOR_CACHE: usize = 3;
+
+/// The quasi-definite `L D L^T` (joints) corrects a pivot whose sign is wrong or whose
+/// magnitude is at most this (faer's dynamic regularization): far below the joint block's
+/// own regularization [`JOINT_DELTA`], so that only pivots round-off drove to zero or
+/// across it are touched.
+pub const LDLT_PIVOT_MIN: f64 = 1e-13;
+
+/// ... and makes it this, with its expected sign: below [`JOINT_DELTA`] too, an error the
+/// step of iterative refinement after each solve corrects along with the regularization.
+pub const LDLT_PIVOT_REPLACEMENT: f64 = 1e-10;
+
+/// Largest diagonal block the block Jacobi preconditioner of the conjugate gradients
+/// factorizes (a rigid body has 6 velocities; a body with a few extra coordinates still
+/// fits); larger components of M's graph fall back to their diagonal. Also the most
+/// velocities a body of a distributed problem may have.
+pub const BLOCK_MAX: usize = 12;
+
+/// Tikhonov regularization of Anderson acceleration's normal equations, relative to the
+/// mean diagonal of their Gram matrix: the differences of successive residuals are often
+/// nearly dependent, and this keeps the small system solvable while moving the mixing
+/// coefficients by about 1e-10 of their size.
+pub const ANDERSON_REGULARIZATION: f64 = 1e-10;
+
 // Limits of the settings.
 
 /// Most Anderson memory a setting may ask for: a bound, not a tuned optimum (`auto` uses

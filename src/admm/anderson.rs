@@ -6,6 +6,8 @@
 //! Gram matrix is updated one column at a time. Nothing is allocated after construction.
 
 use crate::csc::dot;
+use crate::dense::gauss_solve;
+use crate::tuning::ANDERSON_REGULARIZATION;
 
 /// Anderson acceleration state for vectors of a fixed dimension.
 pub struct Anderson {
@@ -73,51 +75,71 @@ impl Anderson {
         if self.memory == 0 {
             return false;
         }
-        let m = self.memory;
         if self.has_prev {
-            // New column: df = f - f_prev, dg = g - g_prev.
-            let col = if self.len < m {
-                self.len += 1;
-                (self.head + self.len - 1) % m
-            } else {
-                let c = self.head;
-                self.head = (self.head + 1) % m;
-                c
-            };
-            let (dfc, dgc) = (
-                &mut self.df[col * self.dim..(col + 1) * self.dim],
-                &mut self.dg[col * self.dim..(col + 1) * self.dim],
-            );
-            for i in 0..self.dim {
-                let f = g[i] - x[i];
-                dfc[i] = f - self.f_prev[i];
-                dgc[i] = g[i] - self.g_prev[i];
-            }
-            for j in 0..m {
-                self.rhs[j] = if self.is_live(j) {
-                    dot_cols(&self.df, self.dim, col, j)
-                } else {
-                    0.0
-                };
-            }
-            sum(&mut self.rhs);
-            for j in 0..m {
-                if self.is_live(j) {
-                    self.gram[col * m + j] = self.rhs[j];
-                    self.gram[j * m + col] = self.rhs[j];
-                }
-            }
+            self.push_difference(x, g, sum);
         }
         for i in 0..self.dim {
             self.f_prev[i] = g[i] - x[i];
             self.g_prev[i] = g[i];
         }
         self.has_prev = true;
-        if self.len == 0 {
+        if self.len == 0 || !self.solve_for_gamma(sum) {
             return false;
         }
-        // Normal equations over the live columns, in ring order.
-        let k = self.len;
+        for a in 0..self.len {
+            let ca = (self.head + a) % self.memory;
+            let gma = self.gamma[a];
+            let dga = &self.dg[ca * self.dim..(ca + 1) * self.dim];
+            for (o, d) in out.iter_mut().zip(dga) {
+                *o -= gma * d;
+            }
+        }
+        let mut non_finite = [f64::from(u8::from(!out.iter().all(|v| v.is_finite())))];
+        sum(&mut non_finite);
+        non_finite[0] == 0.0
+    }
+
+    /// Adds the column `df = f - f_prev`, `dg = g - g_prev` (over the oldest one when the
+    /// memory is full) and its inner products with the live columns to the Gram matrix.
+    fn push_difference(&mut self, x: &[f64], g: &[f64], sum: &dyn Fn(&mut [f64])) {
+        let m = self.memory;
+        let col = if self.len < m {
+            self.len += 1;
+            (self.head + self.len - 1) % m
+        } else {
+            let c = self.head;
+            self.head = (self.head + 1) % m;
+            c
+        };
+        let (dfc, dgc) = (
+            &mut self.df[col * self.dim..(col + 1) * self.dim],
+            &mut self.dg[col * self.dim..(col + 1) * self.dim],
+        );
+        for i in 0..self.dim {
+            let f = g[i] - x[i];
+            dfc[i] = f - self.f_prev[i];
+            dgc[i] = g[i] - self.g_prev[i];
+        }
+        for j in 0..m {
+            self.rhs[j] = if self.is_live(j) {
+                dot_cols(&self.df, self.dim, col, j)
+            } else {
+                0.0
+            };
+        }
+        sum(&mut self.rhs);
+        for j in 0..m {
+            if self.is_live(j) {
+                self.gram[col * m + j] = self.rhs[j];
+                self.gram[j * m + col] = self.rhs[j];
+            }
+        }
+    }
+
+    /// `gamma = argmin ||f - dF gamma||` over the live columns, in ring order, through the
+    /// regularized normal equations; false when they are degenerate.
+    fn solve_for_gamma(&mut self, sum: &dyn Fn(&mut [f64])) -> bool {
+        let (k, m) = (self.len, self.memory);
         let mut trace = 0.0;
         for a in 0..k {
             let ca = (self.head + a) % m;
@@ -133,28 +155,15 @@ impl Anderson {
         if !(trace > 0.0 && trace.is_finite()) {
             return false;
         }
-        let reg = 1e-10 * trace / k as f64;
+        let reg = ANDERSON_REGULARIZATION * trace / k as f64;
         for a in 0..k {
             self.sys[a * k + a] += reg;
         }
-        if !solve_dense(
+        gauss_solve(
             &mut self.sys[..k * k],
             &mut self.rhs[..k],
             &mut self.gamma[..k],
-        ) {
-            return false;
-        }
-        for a in 0..k {
-            let ca = (self.head + a) % m;
-            let gma = self.gamma[a];
-            let dga = &self.dg[ca * self.dim..(ca + 1) * self.dim];
-            for (o, d) in out.iter_mut().zip(dga) {
-                *o -= gma * d;
-            }
-        }
-        let mut non_finite = [f64::from(u8::from(!out.iter().all(|v| v.is_finite())))];
-        sum(&mut non_finite);
-        non_finite[0] == 0.0
+        )
     }
 
     fn is_live(&self, col: usize) -> bool {
@@ -165,38 +174,6 @@ impl Anderson {
 
 fn dot_cols(buf: &[f64], dim: usize, a: usize, b: usize) -> f64 {
     dot(&buf[a * dim..(a + 1) * dim], &buf[b * dim..(b + 1) * dim])
-}
-
-/// Solves the `k x k` row-major system in place by Gaussian elimination with partial
-/// pivoting; false when singular.
-fn solve_dense(a: &mut [f64], b: &mut [f64], x: &mut [f64]) -> bool {
-    let k = b.len();
-    for col in 0..k {
-        let piv = (col..k)
-            .max_by(|&i, &j| a[i * k + col].abs().total_cmp(&a[j * k + col].abs()))
-            .unwrap_or(col);
-        if a[piv * k + col].abs() < 1e-300 {
-            return false;
-        }
-        if piv != col {
-            for j in 0..k {
-                a.swap(piv * k + j, col * k + j);
-            }
-            b.swap(piv, col);
-        }
-        for i in col + 1..k {
-            let f = a[i * k + col] / a[col * k + col];
-            for j in col..k {
-                a[i * k + j] -= f * a[col * k + j];
-            }
-            b[i] -= f * b[col];
-        }
-    }
-    for i in (0..k).rev() {
-        let s: f64 = (i + 1..k).map(|j| a[i * k + j] * x[j]).sum();
-        x[i] = (b[i] - s) / a[i * k + i];
-    }
-    x.iter().all(|v| v.is_finite())
 }
 
 #[cfg(test)]

@@ -5,12 +5,15 @@
 //! Di Cairano's `sqrt(l_min l_max (Q))` both become `sqrt(l_min l_max (W))` there (smallest
 //! non-zero eigenvalue of the symmetric part of W, which is usually singular).
 
+use crate::dense::{cholesky, forward_substitution};
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
 use crate::settings::InitialRho;
 use crate::types::Error;
 use nalgebra::{DMatrix, SymmetricEigen};
 
-/// Smallest eigenvalue above `1e-10 * largest`, and the largest, of a symmetric matrix.
+/// Smallest eigenvalue above `1e-10 * largest`, and the largest, of a symmetric matrix
+/// (nalgebra's symmetric eigensolver: cadmm's dense kernels solve, they do not find
+/// spectra).
 fn spectrum_bounds(a: DMatrix<f64>) -> (f64, f64) {
     if a.is_empty() {
         return (f64::NAN, f64::NAN); // no spectrum: the caller falls back to rho = 1
@@ -68,16 +71,20 @@ pub fn initial_rho(rule: InitialRho, p: &Problem) -> Result<f64, Error> {
 /// `1 / sqrt(l_min l_max)` of the Delassus `H^T M^-1 H`, through its non-zero spectrum
 /// `L^-1 H H^T L^-T` (n x n, with `M = L L^T`).
 fn ghadimi_global(g: &GlobalProblem) -> Result<f64, Error> {
-    if g.n() == 0 || g.n_contacts() == 0 {
+    let n = g.n();
+    if n == 0 || g.n_contacts() == 0 {
         return Ok(1.0);
     }
-    let chol = dense(&g.m)
-        .cholesky()
-        .ok_or(Error::NotPositiveDefinite { field: "M" })?;
-    let x = chol
-        .l()
-        .solve_lower_triangular(&dense(&g.h))
-        .ok_or(Error::NotPositiveDefinite { field: "M" })?;
+    let mut l = g.m.to_dense();
+    if !cholesky(&mut l, n) {
+        return Err(Error::NotPositiveDefinite { field: "M" });
+    }
+    // X = L^-1 H, column by column.
+    let mut x = g.h.to_dense();
+    for column in x.chunks_exact_mut(n) {
+        forward_substitution(&l, n, column);
+    }
+    let x = DMatrix::from_column_slice(n, g.h.ncols(), &x);
     let (min, max) = spectrum_bounds(&x * x.transpose());
     Ok(1.0 / (min * max).sqrt())
 }

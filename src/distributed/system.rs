@@ -9,9 +9,9 @@
 use super::halo::{agree, agree_on, Halo};
 use super::problem::{RankError, RankProblem};
 use crate::csc::{dot, CscMatrix};
-use crate::linsys::dense::spd_inverse;
 use crate::linsys::{
-    conjugate_gradients, CgSystem, CgWork, ContactColumns, PcgOutcome, PcgStop, Workers, BLOCK_MAX,
+    conjugate_gradients, BlockDiagonal, CgSystem, CgWork, ContactColumns, PcgOutcome, PcgStop,
+    Workers, BLOCK_MAX,
 };
 use crate::types::ErrorKind;
 use mpi::topology::SimpleCommunicator;
@@ -22,13 +22,14 @@ pub(crate) struct DistributedGram {
     halo: Halo,
     /// This process's contacts' columns of H, over its vectors (owned velocities, copies).
     h: ContactColumns,
-    /// Owned bodies: first velocity and velocities, and the offset of their dense blocks.
+    /// Owned bodies: first velocity, velocities, and the offset of their dense blocks (in
+    /// the part's mass, as in `mass` and `gram`).
     blocks: Vec<(usize, usize, usize)>,
-    /// Column-major mass blocks (symmetric part), `(H D H^T)_BB` of every process's
-    /// contacts, and the inverse of `M_BB + rho (H D H^T)_BB`, block after block.
-    mass: Vec<f64>,
+    /// The owned bodies' mass blocks (symmetric part) and the inverses of
+    /// `M_BB + rho (H D H^T)_BB`.
+    mass: BlockDiagonal,
+    /// `(H D H^T)_BB` of every process's contacts, laid out as the mass blocks.
     gram: Vec<f64>,
-    inverse: Vec<f64>,
     active: Vec<f64>,
     rho: f64,
     serial: Workers,
@@ -59,21 +60,13 @@ impl DistributedGram {
             first += k;
             offset += k * k;
         }
-        let mut mass = part.mass.clone();
-        for &(_, k, at) in &blocks {
-            let m = &mut mass[at..at + k * k];
-            for j in 0..k {
-                for i in 0..j {
-                    let s = 0.5 * (m[j * k + i] + m[i * k + j]);
-                    (m[j * k + i], m[i * k + j]) = (s, s);
-                }
-            }
-        }
+        let mut mass = BlockDiagonal::consecutive(&part.dofs);
+        mass.matrix_mut().copy_from_slice(&part.mass);
+        mass.symmetrize();
         let local = halo.local();
         let owned = halo.owned();
         Ok(Self {
             gram: block_gram(&halo, &h, &active, &blocks),
-            inverse: vec![0.0; mass.len()],
             h: ContactColumns::new(&h),
             halo,
             blocks,
@@ -90,16 +83,7 @@ impl DistributedGram {
     /// Factorizes the owned blocks of `M + rho H D H^T`; every process gets the error
     /// when one block is not positive definite.
     pub fn set_rho(&mut self, rho: f64) -> Result<(), RankError> {
-        let mut failed = None;
-        for (b, &(_, k, at)) in self.blocks.iter().enumerate() {
-            let mut factor = [0.0; BLOCK_MAX * BLOCK_MAX];
-            for (f, i) in factor.iter_mut().zip(at..at + k * k) {
-                *f = self.mass[i] + rho * self.gram[i];
-            }
-            if !spd_inverse(&mut factor[..k * k], k, &mut self.inverse[at..at + k * k]) {
-                failed.get_or_insert(b);
-            }
-        }
+        let failed = self.mass.invert(rho, &self.gram).err();
         agree(
             self.halo.comm(),
             failed.map(|b| {
@@ -157,24 +141,13 @@ impl CgSystem for DistributedGram {
         let owned = x.len();
         self.x_local[..owned].copy_from_slice(x);
         self.halo.share(&mut self.x_local);
-        let (blocks, mass, x_local) = (&self.blocks, &self.mass, &self.x_local);
+        let (mass, x_local) = (&self.mass, &self.x_local);
+        // The products run on this thread alone (`serial`): `part` is the whole vector.
         let mass_product = |first: usize, part: &mut [f64]| {
-            part.fill(0.0);
-            for &(start, k, at) in blocks {
-                if start >= first + part.len() || start + k <= first {
-                    continue;
-                }
-                for j in 0..k {
-                    let xj = x_local[start + j];
-                    for i in 0..k {
-                        if let Some(yi) =
-                            (start + i).checked_sub(first).and_then(|i| part.get_mut(i))
-                        {
-                            *yi += mass[at + j * k + i] * xj;
-                        }
-                    }
-                }
-            }
+            debug_assert_eq!((first, part.len()), (0, x_local.len()));
+            let (owned_part, copies) = part.split_at_mut(owned);
+            mass.mul(x_local, owned_part);
+            copies.fill(0.0);
         };
         self.h.gram(
             &self.x_local,
@@ -189,12 +162,7 @@ impl CgSystem for DistributedGram {
     }
 
     fn precondition(&self, r: &[f64], z: &mut [f64]) {
-        for &(first, k, at) in &self.blocks {
-            let inverse = &self.inverse[at..at + k * k];
-            for i in 0..k {
-                z[first + i] = (0..k).map(|j| inverse[j * k + i] * r[first + j]).sum();
-            }
-        }
+        self.mass.mul_inverse(0..self.mass.block_count(), r, z);
     }
 
     fn dot(&self, a: &[f64], b: &[f64]) -> f64 {

@@ -4,30 +4,40 @@
 //! rho only refactorizes numerically, and the last few numeric factors are kept so that a
 //! rho rule that oscillates between two values does not refactorize back and forth. Small
 //! ones (an island of a few contacts) are factorized densely.
+//!
+//! Beside them, the other factorizations of the solver: [`BlockDiagonal`], symmetric
+//! positive definite matrices made of small dense blocks (a mass matrix, the block Jacobi
+//! preconditioner of the iterative backend, a small island's M), and [`Lu`], LU with
+//! partial pivoting on a fixed pattern (the Newton systems). Their dense kernels are in
+//! [`crate::dense`].
 
 mod block_diagonal;
 mod contact_columns;
-pub(crate) mod dense;
+mod dense_factor;
 mod gram_product;
+mod lu;
 pub mod param_matrix;
 mod pcg;
 mod sparse_factor;
 pub(crate) mod velocity;
 mod workers;
 
+pub use crate::tuning::DENSE_MAX;
 pub use block_diagonal::BlockDiagonal;
 pub(crate) use contact_columns::ContactRows;
-use dense::DenseFactor;
-pub use dense::DENSE_MAX;
+use dense_factor::DenseFactor;
 pub use gram_product::GramProduct;
+pub(crate) use lu::{Lu, LuFactors, PatternRef};
 pub use param_matrix::ParamMatrix;
 pub use pcg::{Gram, GramPcg, PcgStop};
 pub use sparse_factor::{FactorKind, SparseFactor};
 // What the distributed v-update system shares with one process's iterative backend.
 #[cfg(feature = "mpi")]
+pub(crate) use crate::tuning::BLOCK_MAX;
+#[cfg(feature = "mpi")]
 pub(crate) use contact_columns::ContactColumns;
 #[cfg(feature = "mpi")]
-pub(crate) use pcg::{conjugate_gradients, CgSystem, CgWork, PcgOutcome, BLOCK_MAX};
+pub(crate) use pcg::{conjugate_gradients, CgSystem, CgWork, PcgOutcome};
 #[cfg(feature = "mpi")]
 pub(crate) use workers::Workers;
 

@@ -1,5 +1,6 @@
 //! A square sparse matrix affine in a parameter: `A(rho) = base + rho * slope`.
 
+use super::lu::PatternRef;
 use crate::csc::CscMatrix;
 
 /// Square matrix `base + rho * slope` on one sparsity pattern (compressed columns,
@@ -115,6 +116,15 @@ fn merged<T: Copy>(
 }
 
 impl ParamMatrix {
+    /// The sparsity pattern, borrowed.
+    pub fn pattern(&self) -> PatternRef<'_> {
+        PatternRef {
+            n: self.n,
+            colptr: &self.colptr,
+            rowind: &self.rowind,
+        }
+    }
+
     /// Builds the pattern union of two triplet lists; with `upper_only`, entries below the
     /// diagonal are dropped (the caller passes both triangles of a symmetric matrix).
     /// Duplicates are summed. Also returns where each triplet went.

@@ -8,19 +8,13 @@
 //! densely at each new rho. Components larger than [`BLOCK_MAX`] (a finite-element mesh's
 //! M) fall back to their diagonal.
 
-use super::block_diagonal::components;
+use super::block_diagonal::BlockDiagonal;
 use super::contact_columns::ContactColumns;
-use super::dense::spd_inverse;
 use super::workers::Workers;
 use crate::csc::{dot, CscMatrix, RowMajor};
-use crate::tuning::{PARALLEL_MIN_ENTRIES, PCG_TRUE_RESIDUAL_EVERY};
+use crate::tuning::{BLOCK_MAX, PARALLEL_MIN_ENTRIES, PCG_TRUE_RESIDUAL_EVERY};
 use crate::types::Error;
-use std::ops::Range;
 use std::time::Instant;
-
-/// Largest diagonal block the preconditioner factorizes (a rigid body has 6 velocities; a
-/// body with a few extra coordinates still fits).
-pub const BLOCK_MAX: usize = 12;
 
 /// The operator's data: `M`, `H` and the active contact rows `D` (1 or 0 each).
 #[derive(Clone, Copy)]
@@ -64,22 +58,12 @@ pub struct PcgOutcome {
 /// Preconditioned conjugate gradients on `M + rho H D H^T`, with its block-Jacobi
 /// preconditioner and work vectors (a solve does not allocate).
 pub struct GramPcg {
-    /// Indices of block `b`: `index[start[b]..start[b + 1]]`, ascending.
-    index: Vec<usize>,
-    start: Vec<usize>,
-    /// Offset of block `b`'s dense `k x k` matrices in `mass`, `gram` and `factor`.
-    offset: Vec<usize>,
-    /// Block and position in it of each velocity.
-    block_of: Vec<usize>,
-    /// The blocks hold the velocities in order (`index` is `0..n`).
-    in_order: bool,
-    position: Vec<usize>,
-    /// Column-major `(M_BB + M_BB^T) / 2`, `(H D H^T)_BB` and the inverse of
-    /// `M_BB + rho (H D H^T)_BB`, block after block (an inverse, because applying it is one
-    /// small product where a factor takes two triangular solves, at every iteration).
-    mass: Vec<f64>,
+    /// The blocks `(M_BB + M_BB^T) / 2` and the inverses of `M_BB + rho (H D H^T)_BB` (an
+    /// inverse, because applying it is one small product where a factor takes two
+    /// triangular solves, at every iteration).
+    blocks: BlockDiagonal,
+    /// The blocks `(H D H^T)_BB`, laid out as those of M.
     gram: Vec<f64>,
-    inverse: Vec<f64>,
     rho: f64,
     work: CgWork,
     /// The last solve's right-hand side and answer: while the operator stays, the next
@@ -98,40 +82,16 @@ pub struct GramPcg {
     workers: Workers,
     /// Conjugate-gradient iterations over every solve.
     iterations: usize,
-    /// Numeric block factorizations so far.
-    factorizations: usize,
 }
 
 impl GramPcg {
     /// Finds the blocks in M's pattern and takes the values of `M`, `H` and `active`.
     pub fn new(a: Gram) -> Self {
         let n = a.m.ncols();
-        let (index, start, _) = components(a.m, BLOCK_MAX);
-        let mut block_of = vec![0; n];
-        let mut position = vec![0; n];
-        let mut offset = Vec::with_capacity(start.len());
-        let mut size = 0;
-        for b in 0..start.len() - 1 {
-            offset.push(size);
-            let k = start[b + 1] - start[b];
-            size += k * k;
-            for (pos, &i) in index[start[b]..start[b + 1]].iter().enumerate() {
-                block_of[i] = b;
-                position[i] = pos;
-            }
-        }
-        offset.push(size);
-        let in_order = index.iter().enumerate().all(|(k, &i)| k == i);
+        let (blocks, _) = BlockDiagonal::components_of(a.m, BLOCK_MAX);
         let mut pcg = Self {
-            in_order,
-            index,
-            start,
-            offset,
-            block_of,
-            position,
-            mass: vec![0.0; size],
-            gram: vec![0.0; size],
-            inverse: vec![0.0; size],
+            gram: vec![0.0; blocks.entries()],
+            blocks,
             rho: f64::NAN,
             work: CgWork::new(n),
             last_b: vec![0.0; n],
@@ -141,7 +101,6 @@ impl GramPcg {
             m_rows: RowMajor::new(a.m),
             workers: Workers::serial(),
             iterations: 0,
-            factorizations: 0,
         };
         pcg.take_values(a);
         pcg
@@ -170,7 +129,7 @@ impl GramPcg {
 
     /// Numeric factorizations of the preconditioner so far.
     pub fn factorizations(&self) -> usize {
-        self.factorizations
+        self.blocks.refactorizations()
     }
 
     /// Takes new values of M, H and the active rows on the same patterns (no allocation);
@@ -178,25 +137,15 @@ impl GramPcg {
     pub fn take_values(&mut self, Gram { m, h, active }: Gram) {
         self.h.take_values(h);
         self.m_rows.take_values(m);
-        self.mass.fill(0.0);
+        self.blocks.take_symmetric_part(m);
         self.gram.fill(0.0);
-        for j in 0..m.ncols() {
-            for (i, v) in m.col(j) {
-                if let Some(at) = self.slot(i, j) {
-                    // The symmetric part: both triangles add half.
-                    self.mass[at] += 0.5 * v;
-                    let mirror = self.slot(j, i).expect("same block");
-                    self.mass[mirror] += 0.5 * v;
-                }
-            }
-        }
         for c in 0..h.ncols() {
             if active[c] == 0.0 {
                 continue;
             }
             for (i, a) in h.col(c) {
                 for (j, b) in h.col(c) {
-                    if let Some(at) = self.slot(i, j) {
+                    if let Some(at) = self.blocks.slot(i, j) {
                         self.gram[at] += a * b;
                     }
                 }
@@ -206,42 +155,20 @@ impl GramPcg {
         self.recurrences_left = 0;
     }
 
-    /// Where entry `(i, j)` of a block sits in the flat block storage, if both are in one.
-    fn slot(&self, i: usize, j: usize) -> Option<usize> {
-        let b = self.block_of[i];
-        if self.block_of[j] != b {
-            return None;
-        }
-        let k = self.start[b + 1] - self.start[b];
-        Some(self.offset[b] + self.position[j] * k + self.position[i])
-    }
-
     /// Factorizes the blocks of `M + rho H D H^T`; a block that is not positive definite is
     /// an error naming the system.
     pub fn set_rho(&mut self, rho: f64) -> Result<(), Error> {
         if rho == self.rho {
             return Ok(());
         }
-        let mut factor = [0.0; BLOCK_MAX * BLOCK_MAX];
-        for b in 0..self.start.len() - 1 {
-            let k = self.start[b + 1] - self.start[b];
-            let (lo, hi) = (self.offset[b], self.offset[b + 1]);
-            for (f, (m, g)) in factor
-                .iter_mut()
-                .zip(self.mass[lo..hi].iter().zip(&self.gram[lo..hi]))
-            {
-                *f = m + rho * g;
-            }
-            if !spd_inverse(&mut factor[..k * k], k, &mut self.inverse[lo..hi]) {
-                self.rho = f64::NAN;
-                return Err(Error::NotPositiveDefinite {
-                    field: "M + rho H H^T",
-                });
-            }
+        if self.blocks.invert(rho, &self.gram).is_err() {
+            self.rho = f64::NAN;
+            return Err(Error::NotPositiveDefinite {
+                field: "M + rho H H^T",
+            });
         }
         self.rho = rho;
         self.recurrences_left = 0;
-        self.factorizations += 1;
         Ok(())
     }
 
@@ -271,52 +198,22 @@ impl GramPcg {
     /// `z = P^-1 r`, block by block (on the threads when the blocks are the velocities in
     /// order, so that each thread writes one slice of `z`).
     fn precondition(&self, r: &[f64], z: &mut [f64]) {
-        let blocks = self.start.len() - 1;
+        let blocks = &self.blocks;
+        let count = blocks.block_count();
         let threads = self.workers.count();
-        if !self.in_order || threads == 1 {
-            return self.precondition_blocks(0..blocks, r, z);
+        if !blocks.in_order() || threads == 1 {
+            return blocks.mul_inverse(0..count, r, z);
         }
-        let per = blocks.div_ceil(threads);
-        let start = &self.start;
-        let parts = (0..blocks).step_by(per).scan(z, |rest, first| {
-            let range = first..(first + per).min(blocks);
-            let len = start[range.end] - start[range.start];
+        let per = count.div_ceil(threads);
+        let parts = (0..count).step_by(per).scan(z, |rest, first| {
+            let range = first..(first + per).min(count);
+            let len = blocks.unknowns_before(range.end) - blocks.unknowns_before(range.start);
             let (part, tail) = std::mem::take(rest).split_at_mut(len);
             *rest = tail;
             Some((range, part))
         });
-        self.workers.run(parts, |(range, part)| {
-            self.precondition_blocks(range, r, part)
-        });
-    }
-
-    /// `z = P^-1 r` over `blocks`, `z` starting at the first block's first velocity.
-    fn precondition_blocks(&self, blocks: Range<usize>, r: &[f64], z: &mut [f64]) {
-        let shift = if self.in_order {
-            self.start[blocks.start]
-        } else {
-            0
-        };
-        for b in blocks {
-            let idx = &self.index[self.start[b]..self.start[b + 1]];
-            let inverse = &self.inverse[self.offset[b]..self.offset[b + 1]];
-            let (first, k) = (idx[0], idx.len());
-            if k == 6 && idx[5] == first + 5 {
-                // A rigid body's six consecutive velocities: a fixed-size product.
-                let at = first - shift;
-                block_product::<6>(inverse, &r[first..first + 6], &mut z[at..at + 6]);
-                continue;
-            }
-            for &i in idx {
-                z[i - shift] = 0.0;
-            }
-            for (column, &j) in inverse.chunks_exact(k).zip(idx) {
-                let rj = r[j];
-                for (a, &i) in column.iter().zip(idx) {
-                    z[i - shift] += a * rj;
-                }
-            }
-        }
+        self.workers
+            .run(parts, |(range, part)| blocks.mul_inverse(range, r, part));
     }
 
     /// Solves `A(rho) x = b` from the `x` given (a warm start) until `stop` says (see
@@ -463,21 +360,6 @@ impl CgSystem for Bound<'_, '_> {
     }
 }
 
-/// `z = A r` for a dense column-major `K x K` block `A`.
-fn block_product<const K: usize>(a: &[f64], r: &[f64], z: &mut [f64]) {
-    let (a, r, z): (&[f64], &[f64; K], &mut [f64; K]) = (
-        &a[..K * K],
-        r.try_into().expect("K entries"),
-        z.try_into().expect("K entries"),
-    );
-    *z = [0.0; K];
-    for j in 0..K {
-        for i in 0..K {
-            z[i] += a[j * K + i] * r[j];
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -507,9 +389,12 @@ mod tests {
     #[test]
     fn blocks_are_the_components_of_m() {
         let (m, _, _) = system();
-        let (index, start, _) = components(&m, BLOCK_MAX);
-        assert_eq!(index, vec![0, 1, 2, 3, 4]);
-        assert_eq!(start, vec![0, 2, 4, 5]);
+        let (blocks, split) = BlockDiagonal::components_of(&m, BLOCK_MAX);
+        assert!(!split && blocks.in_order());
+        let sizes: Vec<usize> = (0..blocks.block_count())
+            .map(|b| blocks.block(b).len())
+            .collect();
+        assert_eq!(sizes, [2, 2, 1]);
     }
 
     /// The solve against a dense LU solve of the formed matrix.

@@ -1,7 +1,9 @@
-//! Sparse factorization of a [`ParamMatrix`] with faer, reused across rho values.
+//! Sparse factorization of a [`ParamMatrix`] with faer, reused across rho values (the LU
+//! kind through [`Lu`]).
 
-use super::param_matrix::Assembly;
-use super::ParamMatrix;
+use super::lu::{Lu, LuFactors};
+use super::param_matrix::{Assembly, ParamMatrix};
+use crate::tuning::{FACTOR_CACHE, LDLT_PIVOT_MIN, LDLT_PIVOT_REPLACEMENT};
 use crate::types::Error;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
@@ -9,7 +11,6 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, LltRef, SymbolicCholesky,
     SymmetricOrdering,
 };
-use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, NumericLu, SymbolicLu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
@@ -30,16 +31,13 @@ pub enum FactorKind {
 
 enum Symbolic {
     Cholesky(SymbolicCholesky<usize>),
-    Lu(SymbolicLu<usize>),
+    Lu(Lu),
 }
 
 enum Numeric {
     Cholesky(Vec<f64>),
-    Lu(Box<NumericLu<usize, f64>>),
+    Lu(LuFactors),
 }
-
-/// Number of numeric factors kept for recently used rho values.
-const CACHE: usize = 3;
 
 /// Factorization of `A(rho)`; `set_rho` refactorizes numerically (or reuses a cached factor),
 /// `solve_in_place` solves without allocating.
@@ -83,14 +81,11 @@ impl SparseFactor {
                 ]);
                 (Symbolic::Cholesky(s), req)
             }
-            FactorKind::Lu => {
-                let s = factorize_symbolic_lu(pattern, Default::default()).map_err(oom)?;
-                let req = StackReq::any_of(&[
-                    s.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-                    s.solve_in_place_scratch::<f64>(1, Par::Seq),
-                ]);
-                (Symbolic::Lu(s), req)
-            }
+            // The LU keeps its own workspace.
+            FactorKind::Lu => (
+                Symbolic::Lu(Lu::new(name, matrix.pattern())?),
+                StackReq::EMPTY,
+            ),
         };
         let signs = match kind {
             FactorKind::QuasiDefinite { n_positive } => (0..n)
@@ -100,7 +95,7 @@ impl SparseFactor {
         };
         // Factor storage is made by the factorizations that need it (a system whose rho
         // never changes holds one factor, not the cache's worth) and recycled after.
-        let spare = Vec::with_capacity(CACHE);
+        let spare = Vec::with_capacity(FACTOR_CACHE);
         Ok(Self {
             kind,
             name,
@@ -108,7 +103,7 @@ impl SparseFactor {
             matrix,
             symbolic,
             signs,
-            cache: Vec::with_capacity(CACHE),
+            cache: Vec::with_capacity(FACTOR_CACHE),
             spare,
             mem: MemBuffer::new(req),
             probe: vec![0.0; n],
@@ -178,7 +173,7 @@ impl SparseFactor {
         // a change of rho inside the iteration does not allocate factor storage.
         match self.spare.pop() {
             Some(n) => Some(n),
-            None if self.cache.len() == CACHE => Some(self.cache.remove(0).1),
+            None if self.cache.len() == FACTOR_CACHE => Some(self.cache.remove(0).1),
             None => None,
         }
     }
@@ -186,27 +181,38 @@ impl SparseFactor {
     /// Numeric factorization of the current values, into `recycled` when it has the
     /// right kind.
     fn factorize_numeric(&mut self, recycled: Option<Numeric>) -> Result<Numeric, Error> {
-        let n = self.matrix.n;
+        let pattern = self.matrix.pattern();
+        let (symbolic, name) = (&mut self.symbolic, self.name);
+        let s = match symbolic {
+            Symbolic::Lu(lu) => {
+                let mut factors = match recycled {
+                    Some(Numeric::Lu(f)) => f,
+                    _ => lu.factors(),
+                };
+                if !lu.factorize(pattern, &self.values, &mut factors) {
+                    return Err(Error::Singular { field: name });
+                }
+                return Ok(Numeric::Lu(factors));
+            }
+            Symbolic::Cholesky(s) => s,
+        };
         let a = SparseColMatRef::new(
             SymbolicSparseColMatRef::new_checked(
-                n,
-                n,
-                &self.matrix.colptr,
+                pattern.n,
+                pattern.n,
+                pattern.colptr,
                 None,
-                &self.matrix.rowind,
+                pattern.rowind,
             ),
             &self.values,
         );
         let stack = MemStack::new(&mut self.mem);
-        match (&self.symbolic, self.kind) {
-            (Symbolic::Cholesky(s), FactorKind::Cholesky) => {
-                factorize_llt(s, a, stack, recycled, self.name)
+        match self.kind {
+            FactorKind::Cholesky => factorize_llt(s, a, stack, recycled, name),
+            FactorKind::QuasiDefinite { .. } => {
+                factorize_ldlt(s, a, stack, recycled, &self.signs, name)
             }
-            (Symbolic::Cholesky(s), FactorKind::QuasiDefinite { .. }) => {
-                factorize_ldlt(s, a, stack, recycled, &self.signs, self.name)
-            }
-            (Symbolic::Lu(s), _) => factorize_lu(s, a, stack, recycled, self.name),
-            _ => unreachable!("symbolic kind matches factor kind by construction"),
+            FactorKind::Lu => unreachable!("symbolic kind matches factor kind by construction"),
         }
     }
 
@@ -231,22 +237,24 @@ impl SparseFactor {
     /// Solves `A(rho) x = rhs` in place with the current factor (no heap allocation).
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) {
         let n = self.matrix.n;
-        let rhs = MatMut::from_column_major_slice_mut(rhs, n, 1);
-        let stack = MemStack::new(&mut self.mem);
         let (_, numeric) = self
             .cache
             .last()
             .expect("set_rho is called before solve_in_place");
-        match (&self.symbolic, numeric) {
-            (Symbolic::Cholesky(s), Numeric::Cholesky(l)) => match self.kind {
-                FactorKind::Cholesky => {
-                    LltRef::new(s, l).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
+        let stack = MemStack::new(&mut self.mem);
+        match (&mut self.symbolic, numeric) {
+            (Symbolic::Cholesky(s), Numeric::Cholesky(l)) => {
+                let rhs = MatMut::from_column_major_slice_mut(rhs, n, 1);
+                match self.kind {
+                    FactorKind::Cholesky => {
+                        LltRef::new(s, l).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
+                    }
+                    _ => {
+                        LdltRef::new(s, l).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
+                    }
                 }
-                _ => LdltRef::new(s, l).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack),
-            },
-            (Symbolic::Lu(s), Numeric::Lu(lu)) => {
-                LuRef::new_unchecked(s, lu).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack)
             }
+            (Symbolic::Lu(lu), Numeric::Lu(factors)) => lu.solve_in_place(factors, rhs),
             _ => unreachable!("numeric kind matches symbolic kind by construction"),
         }
     }
@@ -302,8 +310,8 @@ fn factorize_ldlt(
     let mut l = cholesky_storage(s, recycled);
     let reg = LdltRegularization {
         dynamic_regularization_signs: Some(signs),
-        dynamic_regularization_delta: 1e-10,
-        dynamic_regularization_epsilon: 1e-13,
+        dynamic_regularization_delta: LDLT_PIVOT_REPLACEMENT,
+        dynamic_regularization_epsilon: LDLT_PIVOT_MIN,
     };
     s.factorize_numeric_ldlt(
         &mut l,
@@ -316,22 +324,4 @@ fn factorize_ldlt(
     )
     .map_err(|_| Error::NotPositiveDefinite { field: name })?;
     Ok(Numeric::Cholesky(l))
-}
-
-/// `L U` with partial pivoting of a general `a` (an exactly singular one is only caught
-/// by the probe in [`SparseFactor::set_rho`]).
-fn factorize_lu(
-    s: &SymbolicLu<usize>,
-    a: SparseColMatRef<'_, usize, f64>,
-    stack: &mut MemStack,
-    recycled: Option<Numeric>,
-    name: &'static str,
-) -> Result<Numeric, Error> {
-    let mut lu = match recycled {
-        Some(Numeric::Lu(v)) => v,
-        _ => Box::new(NumericLu::new()),
-    };
-    s.factorize_numeric_lu(&mut lu, a, Par::Seq, stack, Default::default())
-        .map_err(|_| Error::Singular { field: name })?;
-    Ok(Numeric::Lu(lu))
 }

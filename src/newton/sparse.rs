@@ -1,15 +1,9 @@
-//! Fixed-pattern sparse LU for the Newton systems: the pattern is built once, the symbolic
-//! analysis (COLAMD column ordering) is done once, and every Newton step only refills the
-//! values and refactorizes numerically. Systems of at most [`DENSE_MAX`] unknowns are
-//! factorized densely instead (a small local problem, an island of a few contacts).
+//! Fixed-pattern LU for the Newton systems: the pattern is built once, the analysis is done
+//! once ([`Lu`]: dense for small systems, sparse above), and every Newton step only refills
+//! the values and refactorizes numerically.
 
-use crate::linsys::dense::{lu, lu_solve};
-use crate::linsys::DENSE_MAX;
+use crate::linsys::{Lu, LuFactors, PatternRef};
 use crate::types::Error;
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, NumericLu, SymbolicLu};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par};
 
 /// A square compressed-column pattern with sorted, unique rows per column.
 #[derive(Debug, Clone)]
@@ -62,62 +56,37 @@ impl Pattern {
     pub fn nnz(&self) -> usize {
         self.rowind.len()
     }
+
+    /// The pattern, borrowed.
+    fn borrowed(&self) -> PatternRef<'_> {
+        PatternRef {
+            n: self.n,
+            colptr: &self.colptr,
+            rowind: &self.rowind,
+        }
+    }
 }
 
-/// Sparse LU with partial pivoting on a fixed pattern.
+/// LU with partial pivoting on a fixed pattern ([`Lu`]), of values the caller fills.
 pub struct SparseLu {
     pattern: Pattern,
     /// Values of the matrix to factorize, in pattern order; filled by the caller.
     pub values: Vec<f64>,
-    backend: Backend,
+    lu: Lu,
+    factors: LuFactors,
     factored: bool,
     factorizations: usize,
-}
-
-/// Where the factors live.
-enum Backend {
-    Sparse {
-        symbolic: SymbolicLu<usize>,
-        numeric: Box<NumericLu<usize, f64>>,
-        mem: MemBuffer,
-    },
-    /// Column-major dense factors and row exchanges ([`lu`]).
-    Dense {
-        factor: Vec<f64>,
-        pivots: Vec<usize>,
-    },
 }
 
 impl SparseLu {
     /// Symbolic analysis of `pattern`; `name` labels the matrix in errors.
     pub fn new(name: &'static str, pattern: Pattern) -> Result<Self, Error> {
-        let n = pattern.n;
-        let backend = if n <= DENSE_MAX {
-            Backend::Dense {
-                factor: vec![0.0; n * n],
-                pivots: vec![0; n],
-            }
-        } else {
-            let sym =
-                SymbolicSparseColMatRef::new_checked(n, n, &pattern.colptr, None, &pattern.rowind);
-            let symbolic =
-                factorize_symbolic_lu(sym, Default::default()).map_err(|_| Error::OutOfMemory {
-                    what: format!("the symbolic analysis of {name}"),
-                })?;
-            let req = StackReq::any_of(&[
-                symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-                symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-            ]);
-            Backend::Sparse {
-                symbolic,
-                numeric: Box::new(NumericLu::new()),
-                mem: MemBuffer::new(req),
-            }
-        };
+        let lu = Lu::new(name, pattern.borrowed())?;
         Ok(Self {
             values: vec![0.0; pattern.nnz()],
+            factors: lu.factors(),
+            lu,
             pattern,
-            backend,
             factored: false,
             factorizations: 0,
         })
@@ -135,41 +104,11 @@ impl SparseLu {
         if !self.values.iter().all(|v| v.is_finite()) {
             return false;
         }
-        let n = self.pattern.n;
         self.factorizations += 1;
-        let ok = match &mut self.backend {
-            Backend::Dense { factor, pivots } => {
-                factor.fill(0.0);
-                for j in 0..n {
-                    for k in self.pattern.colptr[j]..self.pattern.colptr[j + 1] {
-                        factor[self.pattern.rowind[k] + j * n] = self.values[k];
-                    }
-                }
-                lu(factor, pivots, n)
-            }
-            Backend::Sparse {
-                symbolic,
-                numeric,
-                mem,
-            } => {
-                let a = SparseColMatRef::new(
-                    SymbolicSparseColMatRef::new_checked(
-                        n,
-                        n,
-                        &self.pattern.colptr,
-                        None,
-                        &self.pattern.rowind,
-                    ),
-                    &self.values[..],
-                );
-                let stack = MemStack::new(mem);
-                symbolic
-                    .factorize_numeric_lu(numeric, a, Par::Seq, stack, Default::default())
-                    .is_ok()
-            }
-        };
-        self.factored = ok;
-        ok
+        self.factored = self
+            .lu
+            .factorize(self.pattern.borrowed(), &self.values, &mut self.factors);
+        self.factored
     }
 
     /// Solves in place with the last factorization; false when the solution is not finite
@@ -178,24 +117,7 @@ impl SparseLu {
         if !self.factored {
             return false;
         }
-        let n = self.pattern.n;
-        match &mut self.backend {
-            Backend::Dense { factor, pivots } => lu_solve(factor, pivots, n, rhs),
-            Backend::Sparse {
-                symbolic,
-                numeric,
-                mem,
-            } => {
-                let x = MatMut::from_column_major_slice_mut(rhs, n, 1);
-                let stack = MemStack::new(mem);
-                LuRef::new_unchecked(symbolic, numeric).solve_in_place_with_conj(
-                    Conj::No,
-                    x,
-                    Par::Seq,
-                    stack,
-                );
-            }
-        }
+        self.lu.solve_in_place(&self.factors, rhs);
         rhs.iter().all(|v| v.is_finite())
     }
 }

@@ -4,7 +4,6 @@
 
 use crate::admm::{self, EngineSettings, EngineState, SUpdate};
 use crate::contact::{contact_form, initial_rho, ContactForm};
-use crate::islands::EVERY_FIELD;
 use crate::measure::Floors;
 use crate::problem::{KeptValues, NewValues, Problem};
 use crate::settings::{NewtonUse, Resolved, Settings};
@@ -155,7 +154,7 @@ impl CoupledSolver {
     /// time step of a simulation): numeric refactorization only, through the same path as
     /// [`CoupledSolver::update_values`].
     pub(crate) fn update(&mut self, problem: Problem) -> Result<(), Error> {
-        self.kept.keep(self.form.problem(), &EVERY_FIELD);
+        self.kept.keep(self.form.problem(), &NewValues::EVERY_FIELD);
         let taken = self.form.update(problem);
         self.ready_or_undo(taken)
     }

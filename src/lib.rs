@@ -37,19 +37,14 @@ pub mod fclib;
 /// The C API (`include/cadmm.h`): opaque handles, result codes, panic boundary. From Rust,
 /// use the types re-exported at the crate root instead.
 pub mod ffi;
-mod free_motion;
-mod islands;
 mod linsys;
 pub mod measure;
 /// Semismooth Newton (Alart-Curnier) phase.
 mod newton;
 mod problem;
-mod refine;
 mod scene;
 mod settings;
-mod small_island;
 mod solver;
-mod strategy;
 mod tuning;
 mod types;
 

@@ -529,6 +529,22 @@ pub struct NewValues<'a> {
     pub q: Option<&'a [f64]>,
 }
 
+impl NewValues<'static> {
+    /// Every field named: what an update that replaces the whole problem hands each part
+    /// of a scene, or keeps for undoing (only which fields are `Some` matters).
+    pub(crate) const EVERY_FIELD: Self = NewValues {
+        m: Some(&[]),
+        h: Some(&[]),
+        g: Some(&[]),
+        f: Some(&[]),
+        w: Some(&[]),
+        b: Some(&[]),
+        mu: Some(&[]),
+        delassus: Some(&[]),
+        q: Some(&[]),
+    };
+}
+
 /// Copies of a problem's current values for the fields an update names, taken before the
 /// update so that one refused after its values were taken (a matrix that does not
 /// factorize) can be undone: a refused update changes nothing. The buffers are reused

@@ -4,8 +4,8 @@
 //! it when the solver is built (docs/algorithms.md §12).
 
 use crate::coupled::{CoupledSolver, NewtonFirst};
-use crate::islands::{partition_global, partition_local};
 use crate::problem::{NewValues, Problem};
+use crate::scene::islands::{partition_global, partition_local};
 use crate::scene::Scene;
 use crate::settings::{Resolved, Settings};
 use crate::tuning::ROUND_OFF_MARGIN;

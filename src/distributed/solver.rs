@@ -18,7 +18,7 @@ use crate::admm::{run, EngineSettings, EngineState, Splitting};
 use crate::contact::shared_initial_rho;
 use crate::measure::{Floors, GlobalTerms, Scales};
 use crate::problem::{check_len, GlobalProblem, Problem};
-use crate::refine::{most_severe, refine_rounds, severity, status_of, SolveInParts};
+use crate::scene::refine::{most_severe, refine_rounds, severity, status_of, SolveInParts};
 use crate::settings::{InitialRho, LinearSolver, NewtonUse, Resolved, Settings};
 use crate::solver::Solver;
 use crate::tuning::{ISLAND_ROUNDS, ROUND_OFF_MARGIN};

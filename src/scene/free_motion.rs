@@ -4,10 +4,10 @@
 //! densely on its own, so a scene with thousands of free bodies pays for them in
 //! proportion, not for a sparse analysis of all of them together.
 
-use crate::islands::Part;
 use crate::linsys::{BlockDiagonal, DENSE_MAX};
 use crate::measure::{Floors, GlobalTerms, Scales};
 use crate::problem::GlobalProblem;
+use crate::scene::islands::Part;
 use crate::types::Solution;
 use crate::types::Stats;
 use crate::types::{Error, Status};

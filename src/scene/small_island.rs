@@ -11,11 +11,11 @@
 
 use crate::certificate::local_run_off;
 use crate::csc::CscMatrix;
-use crate::islands::{contact_rows, Part};
 use crate::linsys::{BlockDiagonal, DENSE_MAX};
 use crate::measure::{local_error_with, Floors, GlobalTerms, MeasureWork, Scales};
 use crate::newton::{LocalNewton, NewtonOutcome};
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
+use crate::scene::islands::{contact_rows, Part};
 use crate::types::Solution;
 use crate::types::{Error, Status};
 use crate::types::{Phase, Stats, TracePoint};
@@ -57,7 +57,7 @@ struct Data<'a> {
 }
 
 /// Where an island sits in the whole problem: its velocities and contacts, and the
-/// positions of [`crate::islands::positions`].
+/// positions of [`crate::scene::islands::positions`].
 #[derive(Clone, Copy)]
 pub(crate) struct Site<'a> {
     pub whole: &'a Problem,

@@ -5,18 +5,18 @@
 //! its [`Strategy`]; no part runs Newton twice from the same start.
 
 use crate::coupled::{CoupledSolver, NewtonFirst};
-use crate::free_motion::FreeMotion;
-use crate::islands::{contact_rows, Part, ValueBuffers};
 use crate::measure::{Floors, Scales};
 use crate::problem::{NewValues, Problem};
+use crate::scene::free_motion::FreeMotion;
+use crate::scene::islands::{contact_rows, Part, ValueBuffers};
+use crate::scene::small_island::{Site, SmallIsland, SmallWork};
 use crate::settings::Settings;
-use crate::small_island::{Site, SmallIsland, SmallWork};
 use crate::tuning::NEWTON_FIRST_STEPS;
 use crate::types::{Error, Solution, Stats, Status, TracePoint};
 use std::time::Instant;
 
 /// What every part's solve reads: the whole problem (a small island that falls back builds
-/// its sub-problem from it), the positions of [`crate::islands::positions`], and the clock.
+/// its sub-problem from it), the positions of [`crate::scene::islands::positions`], and the clock.
 pub(crate) struct SolveContext<'a> {
     pub(crate) whole: &'a Problem,
     pub(crate) row_of: &'a [usize],

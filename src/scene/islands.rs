@@ -393,20 +393,6 @@ fn gather_sized<'a>(
     out
 }
 
-/// Every field named: what an update that replaces the whole problem hands each part
-/// (only which fields are `Some` matters to [`ValueBuffers`]).
-pub(crate) const EVERY_FIELD: NewValues<'static> = NewValues {
-    m: Some(&[]),
-    h: Some(&[]),
-    g: Some(&[]),
-    f: Some(&[]),
-    w: Some(&[]),
-    b: Some(&[]),
-    mu: Some(&[]),
-    delassus: Some(&[]),
-    q: Some(&[]),
-};
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,14 +2,20 @@
 //! from the sparsity pattern, each solved by its own [`PartSolver`], and the whole
 //! problem, on which new values land first and the assembled solution is measured.
 
+mod free_motion;
+pub(crate) mod islands;
+pub(crate) mod refine;
+mod small_island;
+mod strategy;
+
 use crate::csc::norm2;
-use crate::islands::{contact_rows, gather, positions, Part, Partition, EVERY_FIELD};
 use crate::measure::{solution_error, MeasureWork, Scales};
 use crate::problem::{check_len, KeptValues, NewValues, Problem};
-use crate::refine::{most_severe, refine_rounds, SolveInParts};
+use crate::scene::islands::{contact_rows, gather, positions, Part, Partition};
+use crate::scene::refine::{most_severe, refine_rounds, SolveInParts};
+use crate::scene::small_island::SmallWork;
+use crate::scene::strategy::{PartSolver, SolveContext};
 use crate::settings::{NewtonUse, Settings};
-use crate::small_island::SmallWork;
-use crate::strategy::{PartSolver, SolveContext};
 use crate::tuning::ISLAND_ROUNDS;
 use crate::types::{Error, Solution, Status};
 use std::sync::Mutex;
@@ -96,12 +102,12 @@ impl Scene {
     pub(crate) fn update(&mut self, problem: Problem) -> Result<(), Error> {
         self.whole.check_successor(&problem)?;
         let before = std::mem::replace(&mut self.whole, problem);
-        let Err(e) = self.distribute(&EVERY_FIELD) else {
+        let Err(e) = self.distribute(&NewValues::EVERY_FIELD) else {
             return Ok(());
         };
         // A part refused its values: every part goes back to the problem before.
         self.whole = before;
-        let _ = self.distribute(&EVERY_FIELD);
+        let _ = self.distribute(&NewValues::EVERY_FIELD);
         Err(e)
     }
 

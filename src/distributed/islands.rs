@@ -13,8 +13,8 @@
 use super::halo::{agree, agree_on, Halo};
 use super::problem::{RankError, RankProblem};
 use crate::csc::CscMatrix;
+use crate::disjoint_sets::DisjointSets;
 use crate::problem::GlobalProblem;
-use crate::scene::islands::DisjointSets;
 use crate::types::ErrorKind;
 use mpi::topology::SimpleCommunicator;
 use std::collections::HashMap;

@@ -169,9 +169,15 @@ fn host_communicator(comm: c_int) -> FfiResult<ManuallyDrop<SimpleCommunicator>>
             "comm is MPI_COMM_NULL (pass MPI_Comm_c2f of the host's communicator)",
         ));
     }
-    // SAFETY: a live communicator of the host's; ManuallyDrop keeps it from being freed.
-    Ok(ManuallyDrop::new(unsafe {
-        SimpleCommunicator::from_raw(raw)
+    // MPI's own communicators have handles of their own kind: `from_raw` is for the
+    // communicators a program creates.
+    // SAFETY: reading MPI's constants.
+    let (world, own) = unsafe { (mpi::ffi::RSMPI_COMM_WORLD, mpi::ffi::RSMPI_COMM_SELF) };
+    Ok(ManuallyDrop::new(match raw {
+        r if r == world => SimpleCommunicator::world(),
+        r if r == own => SimpleCommunicator::self_comm(),
+        // SAFETY: a live communicator of the host's; ManuallyDrop keeps it from being freed.
+        _ => unsafe { SimpleCommunicator::from_raw(raw) },
     }))
 }
 

@@ -8,7 +8,7 @@
 
 use crate::csc::CscMatrix;
 // The partition of a distributed problem finds its components with them too.
-pub(crate) use crate::disjoint_sets::DisjointSets;
+use crate::disjoint_sets::DisjointSets;
 use crate::problem::{GlobalProblem, LocalProblem, NewValues, Problem};
 use crate::types::Error;
 

@@ -102,17 +102,20 @@ impl<S: VelocitySystem> GlobalSplitting<S> {
     }
 
     /// The system and what it was built from.
+    #[cfg(feature = "mpi")]
     pub(crate) fn system(&self) -> (&S, &S::Data) {
         (&self.system, &self.p)
     }
 
     /// The system, what it was built from and the current iterate, for the calls that
     /// need all three.
+    #[cfg(feature = "mpi")]
     pub(crate) fn parts_mut(&mut self) -> (&mut S, &S::Data, &[f64]) {
         (&mut self.system, &self.p, &self.sol)
     }
 
     /// The current velocities (and `-lambda` after them with joints).
+    #[cfg(feature = "mpi")]
     pub(crate) fn velocities(&self) -> &[f64] {
         &self.sol
     }

@@ -9,6 +9,7 @@ mod initial_rho;
 mod local;
 
 pub(crate) use form::ContactForm;
+#[cfg(feature = "mpi")]
 pub(crate) use global::GlobalSplitting;
 use global::ProblemSplitting;
 pub(crate) use initial_rho::initial_rho;

@@ -90,6 +90,7 @@ impl BlockDiagonal {
 
     /// Blocks of consecutive unknowns of the sizes given, each 1 to [`DENSE_MAX`] (a
     /// distributed part's bodies).
+    #[cfg(any(feature = "mpi", test))]
     pub fn consecutive(sizes: &[usize]) -> Self {
         assert!(
             sizes.iter().all(|&k| (1..=DENSE_MAX).contains(&k)),

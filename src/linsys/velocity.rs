@@ -18,7 +18,9 @@ use crate::types::Error;
 use factorized::FactorizedSystem;
 use matrix_free::MatrixFreeSystem;
 use own_problem::OwnProblem;
-pub(crate) use system::{inexact_stop, Accuracy, ContactData, ProblemSystem, VelocitySystem};
+#[cfg(feature = "mpi")]
+pub(crate) use system::inexact_stop;
+pub(crate) use system::{Accuracy, ContactData, ProblemSystem, VelocitySystem};
 
 /// The one-process system `choice` asks for. `Auto` (docs/algorithms.md §14) factorizes
 /// unless the system is large and the symbolic analysis predicts a factor whose two

@@ -76,6 +76,7 @@ pub(crate) fn severity(status: Option<Status>) -> u8 {
 }
 
 /// The status of a [`severity`] (`None` for 0).
+#[cfg(any(feature = "mpi", test))]
 pub(crate) fn status_of(code: u8) -> Option<Status> {
     [
         Status::MaxIterations,

@@ -162,10 +162,13 @@ impl<S: VelocitySystem> GlobalSplitting<S> {
         };
         // The velocity is the iterate a Newton phase would start from.
         self.sol[..v.len()].copy_from_slice(v);
-        self.system.contact_velocity(&self.p, v, &mut self.u);
+        // One product for both: u = H^T v + w, and H^T v for the projection.
+        self.system.h_t_mul(&self.p, v, &mut self.work_m);
+        for ((u, a), w) in self.u.iter_mut().zip(&self.work_m).zip(self.p.w()) {
+            *u = a + w;
+        }
         de_saxce_shift(&self.u, self.p.mu(), &mut self.phi);
         self.refresh_c();
-        self.system.h_t_mul(&self.p, v, &mut self.work_m);
         for (i, &mu) in self.p.mu().iter().enumerate() {
             let (a, c) = (get3(&self.work_m, i), get3(&self.c, i));
             set3(

@@ -236,13 +236,6 @@ impl VelocitySystem for DistributedSystem {
         self.gram.h_t_mul(sol, ax);
     }
 
-    fn contact_velocity(&mut self, part: &RankProblem, v: &[f64], u: &mut [f64]) {
-        self.gram.h_t_mul(v, u);
-        for (u, w) in u.iter_mut().zip(&part.w) {
-            *u += w;
-        }
-    }
-
     fn h_t_mul(&mut self, _: &RankProblem, v: &[f64], out: &mut [f64]) {
         self.gram.h_t_mul(v, out);
     }

@@ -145,11 +145,6 @@ impl VelocitySystem for FactorizedSystem {
         p.h.mul_t_vec(1.0, &sol[..n], 0.0, ax);
     }
 
-    fn contact_velocity(&mut self, p: &GlobalProblem, v: &[f64], u: &mut [f64]) {
-        u.copy_from_slice(&p.w);
-        p.h.mul_t_vec(1.0, v, 1.0, u);
-    }
-
     fn h_t_mul(&mut self, p: &GlobalProblem, v: &[f64], out: &mut [f64]) {
         p.h.mul_t_vec(1.0, v, 0.0, out);
     }

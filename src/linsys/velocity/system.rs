@@ -68,7 +68,12 @@ pub(crate) trait VelocitySystem {
     );
 
     /// `u = H^T v + w` over the contacts.
-    fn contact_velocity(&mut self, p: &Self::Data, v: &[f64], u: &mut [f64]);
+    fn contact_velocity(&mut self, p: &Self::Data, v: &[f64], u: &mut [f64]) {
+        self.h_t_mul(p, v, u);
+        for (u, w) in u.iter_mut().zip(p.w()) {
+            *u += w;
+        }
+    }
 
     /// `out = H^T v`.
     fn h_t_mul(&mut self, p: &Self::Data, v: &[f64], out: &mut [f64]);

@@ -298,14 +298,32 @@ pub fn global_error_with(
 /// joint term's scale from the data, for an answer at rest (a chain hanging still has
 /// `G^T v = 0` and `b = 0`, and only this says how small its residual must be).
 fn free_joint_velocity(p: &GlobalProblem, g: &crate::csc::CscMatrix) -> f64 {
+    free_row_velocity(p, g, |_| 0.0)
+}
+
+/// The contact velocities under free motion in the same sense, `|| |H|^T |diag(M)^-1 f| +
+/// |w| ||`: the contact term's scale from the data, for the islands' floors before any
+/// answer is known (docs/algorithms.md §12). An island of bodies that touch and move
+/// together (a wall's row in free fall) has `u = 0` and `r = 0` at its answer, so its own
+/// contact denominator is round-off, and only a floor from the data ends its solve.
+pub(crate) fn free_contact_velocity(p: &GlobalProblem) -> f64 {
+    free_row_velocity(p, &p.h, |k| p.w[k].abs())
+}
+
+/// `|| |J|^T |diag(M)^-1 f| + extra ||` over the columns of `j`.
+fn free_row_velocity(
+    p: &GlobalProblem,
+    j: &crate::csc::CscMatrix,
+    extra: impl Fn(usize) -> f64,
+) -> f64 {
     // A diagonal that is not positive (M is then not positive definite either, which the
     // solver refuses) gives no free velocity.
     let free = |i: usize| match p.m.diagonal_entry(i) {
         d if d > 0.0 => p.f[i] / d,
         _ => 0.0,
     };
-    let row = |k: usize| g.col(k).map(|(i, gik)| (gik * free(i)).abs()).sum::<f64>();
-    SumSq::of(|| (0..g.ncols()).map(row)).norm()
+    let row = |k: usize| j.col(k).map(|(i, jik)| (jik * free(i)).abs()).sum::<f64>() + extra(k);
+    SumSq::of(|| (0..j.ncols()).map(row)).norm()
 }
 
 /// The products the equation and contact terms of the global measure are made of, at

@@ -9,14 +9,14 @@ mod small_island;
 mod strategy;
 
 use crate::csc::norm2;
-use crate::measure::{solution_error, MeasureWork, Scales};
+use crate::measure::{free_contact_velocity, solution_error, MeasureWork, Scales};
 use crate::problem::{check_len, KeptValues, NewValues, Problem};
 use crate::scene::islands::{contact_rows, gather, positions, Part, Partition};
 use crate::scene::refine::{most_severe, refine_rounds, SolveInParts};
 use crate::scene::small_island::SmallWork;
 use crate::scene::strategy::{PartSolver, SolveContext};
 use crate::settings::{NewtonUse, Settings};
-use crate::tuning::ISLAND_ROUNDS;
+use crate::tuning::{FREE_CONTACT_SHARE, ISLAND_ROUNDS};
 use crate::types::{Error, Solution, Status};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -34,8 +34,6 @@ pub(crate) struct Scene {
     /// Contacts no velocity moves (see [`Partition::bodiless`]).
     bodiless: Vec<usize>,
     measure: MeasureWork,
-    /// The whole problem's scales known before solving: `||f||`, `||b||` (local: `||q||`).
-    known_scales: Scales,
     /// The part whose trace and residuals the solver reports (the one that needed the
     /// most iterations in the last solve; none without parts).
     pub(crate) slowest: Option<usize>,
@@ -74,19 +72,7 @@ impl Scene {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let measure = MeasureWork::new(&whole);
-        let known_scales = match &whole {
-            Problem::Global(g) => Scales {
-                equation: norm2(&g.f),
-                contact: 0.0,
-                joint: g.joints.as_ref().map_or(0.0, |j| norm2(&j.b)),
-            },
-            Problem::Local(l) => Scales {
-                equation: norm2(&l.q),
-                ..Scales::default()
-            },
-        };
         Ok(Self {
-            known_scales,
             whole,
             parts,
             n_islands,
@@ -129,6 +115,24 @@ impl Scene {
         }
         self.kept = kept;
         taken
+    }
+
+    /// The whole problem's scales known before solving, from its current values: `||f||`,
+    /// a share of the free motion's contact velocities (`measure::free_contact_velocity`,
+    /// [`FREE_CONTACT_SHARE`]) and `||b||` (local form: `||q||`), which floor the islands'
+    /// first solve.
+    fn known_scales(&self) -> Scales {
+        match &self.whole {
+            Problem::Global(g) => Scales {
+                equation: norm2(&g.f),
+                contact: FREE_CONTACT_SHARE * free_contact_velocity(g),
+                joint: g.joints.as_ref().map_or(0.0, |j| norm2(&j.b)),
+            },
+            Problem::Local(l) => Scales {
+                equation: norm2(&l.q),
+                ..Scales::default()
+            },
+        }
     }
 
     /// Takes the settings a solve reads when it starts.
@@ -179,10 +183,11 @@ impl Scene {
         out: &mut Solution,
     ) -> Result<(Status, f64), Error> {
         let tol = settings.tolerance;
+        let known_scales = self.known_scales();
         for p in &mut self.parts {
             p.tolerance = tol;
             p.reset();
-            p.set_floors(self.known_scales);
+            p.set_floors(known_scales);
         }
         let pending = vec![true; self.parts.len()];
         let mut rounds = SceneRounds {

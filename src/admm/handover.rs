@@ -7,6 +7,10 @@
 /// A stall is an error not halved over the window: the hybrid rule of docs/algorithms.md §9.3.
 const STALL_RATIO: f64 = 0.5;
 
+/// A Newton rescue from a stall more than this many times above the tolerance has no step
+/// limit; nearer, it is bounded (see `HandoverMonitor::newton_budget`).
+const RESCUE_FAR: f64 = 10.0;
+
 /// ADMM's rate is measured over this many evaluations (with Anderson steps the error is not
 /// monotone from one evaluation to the next).
 const RATE_WINDOW: usize = 4;
@@ -48,6 +52,9 @@ pub(super) struct HandoverMonitor {
     admm_iterations_left: f64,
     /// The last evaluation was at or below `error_below`.
     polishing: bool,
+    /// Iterations of this loop and error at the last evaluation.
+    iterations: usize,
+    last_error: f64,
     /// The lowest error measured so far.
     best: f64,
 }
@@ -64,6 +71,8 @@ impl HandoverMonitor {
             window: [(f64::INFINITY, 0); RATE_WINDOW],
             admm_iterations_left: f64::INFINITY,
             polishing: false,
+            iterations: 0,
+            last_error: f64::INFINITY,
             best: f64::INFINITY,
         }
     }
@@ -72,6 +81,8 @@ impl HandoverMonitor {
     /// the loop should hand over now.
     pub(super) fn hand_over(&mut self, error: f64, iterations: usize) -> bool {
         self.admm_iterations_left = self.iterations_left(error, iterations);
+        self.iterations = iterations;
+        self.last_error = error;
         // The first evaluation gives no rate: ADMM may be about to finish.
         let rated = self.checks > 0;
         if self.checks == 0 {
@@ -99,11 +110,24 @@ impl HandoverMonitor {
     /// How many steps the Newton phase after a handover may take before it no longer pays:
     /// the steps that cost ADMM's predicted iterations to the tolerance when it handed over
     /// below `error_below` (at least one). A handover on a stall is a rescue, not a polish:
-    /// no limit then (Newton took 175 steps from a stalled 4e-4 on Box_Stacks-i1000-444-8,
-    /// where ADMM's estimate, from a rate near 1, said little).
+    /// ADMM's estimate, from a rate near 1, says little there. From a stall more than
+    /// [`RESCUE_FAR`] times above the tolerance the phase has no limit: ADMM's cost grows
+    /// with the decades still to go and Newton's hardly does (Newton took 111 to 175 steps
+    /// from stalls at 4e-4 on Box_Stacks-i1000-444-8 at 1e-8, where a phase cut short
+    /// at ADMM's predicted iterations tripled the solve). Within that factor ADMM is near
+    /// the end, and the phase may take the steps that cost the iterations this loop has
+    /// run, so that a rescue that does not converge at most doubles what the loop cost:
+    /// unbounded, rescues on Bullet scenes' steps at 1e-4 (a wall hit by a ball, boxes
+    /// falling into a bin) took 80 to 280 steps, up to 2 s, where ADMM alone finished in
+    /// 0.1 to 0.6 s.
     pub(super) fn newton_budget(&self) -> Option<usize> {
-        let steps = self.rule.budget * self.admm_iterations_left / self.rule.newton_step_iterations;
-        (self.polishing && steps.is_finite()).then(|| (steps as usize).max(1))
+        let iterations = match self.polishing {
+            true => self.rule.budget * self.admm_iterations_left,
+            false if self.last_error > RESCUE_FAR * self.tolerance => return None,
+            false => self.iterations as f64,
+        };
+        let steps = iterations / self.rule.newton_step_iterations;
+        steps.is_finite().then(|| (steps as usize).max(1))
     }
 
     /// Records `error` in the stall window (and counts the evaluation); true when it is
@@ -231,7 +255,8 @@ mod tests {
         assert!(m.hand_over(4.5e-8, 25));
     }
 
-    /// Above `error_below`, only a stall hands over, and its Newton phase has no budget.
+    /// Above `error_below`, only a stall hands over; its Newton phase has no limit far from
+    /// the tolerance, and near it may take the steps that cost the iterations ADMM has run.
     /// ADMM's remaining iterations come from the rate over the window, from the whole
     /// loop's when the window's error rose, and are infinite when that rose too.
     #[test]
@@ -249,7 +274,21 @@ mod tests {
         // more than the 30 x 50 a rescue is expected to cost.
         let left = m.admm_iterations_left;
         assert!((left / 5_590.0 - 1.0).abs() < 0.01, "{left}");
+        // 0.95e-3 is far above 1e-8: no limit.
         assert_eq!(m.newton_budget(), None);
+        // Within 10 times the tolerance 1e-3, the 30 iterations run pay for one step of 50
+        // iterations' cost, and for 6 of 5, with or without a prediction (the error rose).
+        for (step, steps) in [(50.0, 1), (5.0, 6)] {
+            let mut near = HandoverMonitor::new(rule(step), 1e-3);
+            for (k, e) in [4e-3, 4.4e-3, 4.8e-3, 5.2e-3, 5.6e-3, 6e-3]
+                .iter()
+                .enumerate()
+            {
+                near.hand_over(*e, 5 * (k + 1));
+            }
+            assert!(near.admm_iterations_left.is_infinite());
+            assert_eq!(near.newton_budget(), Some(steps));
+        }
         // A stall from which ADMM still finishes within 1 500 iterations is left to ADMM:
         // not halved over 4 evaluations, but at that window's rate (0.9e-3 after 10
         // iterations, 0.6e-3 after 25) 1e-8 is about 430 iterations away.

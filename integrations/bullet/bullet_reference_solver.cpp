@@ -22,6 +22,7 @@ btScalar BulletReferenceSolver::solveGroup(btCollisionObject **bodies, int numBo
     measurable = false;
   }
 
+  if (measurable && onAssembled_) onAssembled_(problem_);
   m_analyticsData.m_numIterationsUsed = -1;  // set by the solve when it iterates
   const auto start = std::chrono::steady_clock::now();
   btSequentialImpulseConstraintSolver::solveGroup(bodies, numBodies, manifolds, numManifolds,

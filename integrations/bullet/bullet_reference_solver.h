@@ -7,12 +7,17 @@
 #include "cadmm_constraint_solver.h"
 
 #include <cmath>
+#include <functional>
 #include <utility>
 
 namespace cadmm_bullet {
 
 class BulletReferenceSolver : public btSequentialImpulseConstraintSolver {
  public:
+  // onAssembled: called with each group's problem before Bullet solves it (may be empty).
+  explicit BulletReferenceSolver(std::function<void(const ContactProblem &)> onAssembled = {})
+      : onAssembled_(std::move(onAssembled)) {}
+
   btScalar solveGroup(btCollisionObject **bodies, int numBodies, btPersistentManifold **manifolds,
                       int numManifolds, btTypedConstraint **constraints, int numConstraints,
                       const btContactSolverInfo &info, btIDebugDraw *debugDrawer,
@@ -23,6 +28,7 @@ class BulletReferenceSolver : public btSequentialImpulseConstraintSolver {
   SolveStats takeStats() { return std::exchange(stats_, SolveStats{}); }
 
  private:
+  std::function<void(const ContactProblem &)> onAssembled_;
   ContactProblem problem_;
   SolveStats stats_;
 };

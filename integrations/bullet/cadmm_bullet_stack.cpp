@@ -2,21 +2,27 @@
 // sequential impulse solver and prints one JSON line of figures.
 //
 //   cadmm_bullet_stack --scene tower|drop|mass-ratio-100|mass-ratio-1000|pyramid|
-//                               pendulum|simple-pendulum
+//                               pendulum|simple-pendulum|big-pyramid|wall|bin|chain
 //                      --solver cadmm|bullet [--seconds S] [--bullet-iterations N] [--cold]
 //                      [--json] [--trace FILE.csv] [--check] [--with-hinge]
 //                      [--tolerance T] [--max-iterations N] [--check-tolerance T]
-//                      [--damping D]
+//                      [--damping D] [--count N] [--seed N] [--time-limit S]
+//                      [--dump STEP,STEP,... --dump-dir DIR]
+//
+// --count and --seed size and vary the larger scenes (stack_scenes.h). --time-limit is the
+// cadmm drop-in's budget per solveGroup (SolverOptions::timeLimit). --dump writes the
+// problem of every group solved at the given steps to DIR/SCENE-stepN-groupK.hdf5 (FCLib;
+// needs a cadmm built with CADMM_WITH_FCLIB), with either solver.
 //
 // --check exits with 1 when the scene failed, after printing one "CHECK FAILED: ..." line
 // per failed check:
 //  - a body fell (more than a quarter of a box below or beside where it should rest) or the
-//    top body drifted 1 mm or more horizontally (stacks);
+//    top body drifted 1 mm or more horizontally (stacks at rest, not the scenes in motion);
 //  - a joint opened by kJointGap or more (pendulums);
 //  - the simple pendulum's zero crossings or swing amplitudes left the exact pendulum's
 //    (kCrossingSlack, kAmplitudeSlack);
 //  - a contact ended a step deeper than the Baumgarte correction leaves it, by more than
-//    kMaxPenetrationExcess;
+//    kMaxPenetrationExcess (scenes at rest);
 //  - (cadmm) a solve ended above its tolerance, or an answer re-measured by the driver's own
 //    copy of the error measure (solution_check.h) on the problem handed to cadmm is above the
 //    check tolerance (--check-tolerance, default the solver's --tolerance, default 1e-8).
@@ -28,6 +34,7 @@
 #include "solution_check.h"
 #include "stack_scenes.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -66,10 +73,12 @@ const double kCrossingSlack = 2e-3;
 const double kAmplitudeSlack = 0.01;
 
 struct Args {
-  std::string scene = "tower", solver = "cadmm", trace;
+  std::string scene = "tower", solver = "cadmm", trace, dumpDir;
   double seconds = 5, tolerance = 1e-8, checkTolerance = 0;  // 0: the solver's tolerance
-  double damping = 0;
+  double damping = 0, timeLimit = 0;
   int bulletIterations = 10, maxIterations = 0;               // 0: cadmm's default
+  int count = 0, seed = 1;
+  std::vector<int> dump;  // steps whose groups are written as FCLib files
   bool cold = false, json = false, check = false, hinge = false;
 };
 
@@ -79,7 +88,8 @@ struct Args {
                "mass-ratio-1000|pyramid|pendulum|simple-pendulum --solver cadmm|bullet "
                "[--seconds S] [--bullet-iterations N] [--cold] [--json] [--trace FILE.csv] "
                "[--check] [--with-hinge] [--tolerance T] [--max-iterations N] "
-               "[--check-tolerance T] [--damping D]\n",
+               "[--check-tolerance T] [--damping D] [--count N] [--seed N] [--time-limit S] "
+               "[--dump STEP,STEP,... --dump-dir DIR]\n",
                msg);
   std::exit(64);
 }
@@ -104,6 +114,19 @@ Args parse(int argc, char **argv) {
     }
     else if (k == "--max-iterations") a.maxIterations = std::atoi(value().c_str());
     else if (k == "--damping") a.damping = std::atof(value().c_str());
+    else if (k == "--count") a.count = std::atoi(value().c_str());
+    else if (k == "--seed") a.seed = std::atoi(value().c_str());
+    else if (k == "--time-limit") a.timeLimit = std::atof(value().c_str());
+    else if (k == "--dump-dir") a.dumpDir = value();
+    else if (k == "--dump") {
+      const std::string list = value();
+      for (size_t at = 0; at < list.size();) {
+        const size_t comma = std::min(list.find(',', at), list.size());
+        a.dump.push_back(std::atoi(list.substr(at, comma - at).c_str()));
+        if (a.dump.back() < 1) usage("--dump takes step numbers from 1");
+        at = comma + 1;
+      }
+    }
     else if (k == "--cold") a.cold = true;
     else if (k == "--json") a.json = true;
     else if (k == "--check") a.check = true;
@@ -117,6 +140,9 @@ Args parse(int argc, char **argv) {
   if (a.maxIterations < 0) usage("--max-iterations must be at least 1");
   if (!(a.damping >= 0 && a.damping <= 1)) usage("--damping must be in [0, 1]");
   if (a.checkTolerance == 0) a.checkTolerance = a.tolerance;
+  if (a.count < 0) usage("--count must be at least 1");
+  if (!(a.timeLimit >= 0)) usage("--time-limit must be positive (0: none)");
+  if (!a.dump.empty() && a.dumpDir.empty()) usage("--dump needs --dump-dir");
   return a;
 }
 
@@ -141,6 +167,13 @@ std::string shown(double x) {
 }
 std::string number(double x) { return std::isfinite(x) ? shown(x) : "null"; }
 
+// The q-quantile of xs (nearest rank).
+double percentile(std::vector<double> xs, double q) {
+  if (xs.empty()) return NAN;
+  std::sort(xs.begin(), xs.end());
+  return xs[std::min(xs.size() - 1, size_t(std::ceil(q * double(xs.size()))) - 1)];
+}
+
 }  // namespace
 
 int main(int argc, char **argv) {
@@ -152,24 +185,37 @@ int main(int argc, char **argv) {
   std::unique_ptr<btConstraintSolver> solver;
   // The driver's re-measure of every answer cadmm hands back (solution_check.h).
   double maxChecked = 0;
+  // --dump: the groups of the chosen steps as FCLib files.
+  int step = 0, group = 0;
+  auto dump = [&](const ContactProblem &p) {
+    if (std::find(args.dump.begin(), args.dump.end(), step) == args.dump.end()) return;
+    const std::string path = args.dumpDir + '/' + args.scene + "-step" + std::to_string(step) +
+                             "-group" + std::to_string(group++) + ".hdf5";
+    std::unique_ptr<cadmm_problem, void (*)(cadmm_problem *)> made(p.make(), cadmm_problem_free);
+    if (cadmm_problem_write_fclib(made.get(), path.c_str()) != CADMM_OK)
+      std::fprintf(stderr, "cannot dump %s: %s\n", path.c_str(), cadmm_last_error());
+  };
   if (args.solver == "cadmm") {
     SolverOptions o;
     o.warmStart = !args.cold;
     o.tolerance = args.tolerance;
     o.maxIterations = uint32_t(args.maxIterations);
-    o.onSolved = [&maxChecked](const SolvedGroup &g) {
+    o.timeLimit = args.timeLimit;
+    o.onSolved = [&maxChecked, &dump](const SolvedGroup &g) {
       const double e = remeasureError(g.problem, g.r, g.v, g.lambda);
       if (!(e <= maxChecked)) maxChecked = e;
+      dump(g.problem);
     };
     solver = std::make_unique<CadmmConstraintSolver>(o);
     cadmm = static_cast<CadmmConstraintSolver *>(solver.get());
   } else {
-    solver = std::make_unique<BulletReferenceSolver>();
+    solver = std::make_unique<BulletReferenceSolver>(dump);
     bullet = static_cast<BulletReferenceSolver *>(solver.get());
   }
   StackWorld w(std::move(solver));
   w.world().getSolverInfo().m_numIterations = args.bulletIterations;
-  if (!buildScene(args.scene, w)) usage(("unknown scene " + args.scene).c_str());
+  if (!buildScene(args.scene, w, args.count, unsigned(args.seed)))
+    usage(("unknown scene " + args.scene).c_str());
   if (args.hinge) addHinge(w);
   for (btRigidBody *b : w.boxes) b->setDamping(args.damping, args.damping);
   const double erp = w.world().getSolverInfo().m_erp2;  // the contacts' Baumgarte rate
@@ -190,11 +236,16 @@ int main(int argc, char **argv) {
   }
 
   const int steps = int(std::lround(args.seconds / h));
+  std::vector<double> stepMs;
   double sumIt = 0, maxIt = 0, sumMs = 0, maxMs = 0, maxPen = 0, maxDrift = 0, maxErr = 0,
          maxGap = 0, maxExcess = 0;
   int unsolved = 0, newSolvers = 0;
+  size_t sumContacts = 0;
   bool fell = false, errUnknown = false;
   for (int s = 1; s <= steps; ++s) {
+    step = s, group = 0;
+    if (w.ball.radius > 0 && s == int(std::lround(w.ball.time / h)))
+      w.addSphere(w.ball.radius, w.ball.mass, w.ball.from)->setLinearVelocity(w.ball.velocity);
     try {
       w.world().stepSimulation(h, 1, h);
     } catch (const Error &e) {
@@ -205,15 +256,16 @@ int main(int argc, char **argv) {
     const StackWorld::Penetration pen = w.penetration(erp);
     const double ms = 1e3 * st.seconds;
     sumIt += double(st.iterations), maxIt = std::max(maxIt, double(st.iterations));
+    stepMs.push_back(ms);
     sumMs += ms, maxMs = std::max(maxMs, ms), maxPen = std::max(maxPen, pen.depth);
     maxExcess = std::max(maxExcess, pen.excess);
     if (std::isnan(st.error)) errUnknown = true;
     else maxErr = std::max(maxErr, st.error);
-    unsolved += st.unsolved, newSolvers += st.newSolvers;
+    unsolved += st.unsolved, newSolvers += st.newSolvers, sumContacts += st.contacts;
 
     const btVector3 p = top->getCenterOfMassPosition();
     maxDrift = std::max(maxDrift, double(std::hypot(p.x() - top0.x(), p.z() - top0.z())));
-    for (size_t i = 0; i < w.boxes.size() && args.scene != "pendulum"; ++i) {
+    for (size_t i = 0; i < w.boxes.size() && args.scene != "pendulum" && !w.inMotion; ++i) {
       const btVector3 d = w.boxes[i]->getCenterOfMassPosition() - w.rest[i];
       if (std::hypot(d.x(), d.z()) > 0.25 || d.y() < -0.25) fell = true;
     }
@@ -263,7 +315,11 @@ int main(int argc, char **argv) {
       {"steps", std::to_string(steps)},
       {"mean_iterations", number(sumIt / steps)},
       {"max_iterations", number(maxIt)},
+      {"count", std::to_string(args.count)},
+      {"seed", std::to_string(args.seed)},
+      {"contacts_per_step", number(double(sumContacts) / steps)},
       {"mean_solve_ms", number(sumMs / steps)},
+      {"p99_solve_ms", number(percentile(stepMs, 0.99))},
       {"max_solve_ms", number(maxMs)},
       {"max_penetration", number(maxPen)},
       {"max_penetration_excess", number(maxExcess)},
@@ -290,8 +346,8 @@ int main(int argc, char **argv) {
     const bool pendulum = args.scene == "pendulum" || swing;
     if (pendulum && !(maxGap < kJointGap))
       failed.push_back("the joint opened by " + shown(maxGap) + " m");
-    if (!pendulum && fell) failed.push_back("a body fell");
-    if (!pendulum && !(maxDrift < 1e-3))
+    if (!pendulum && !w.inMotion && fell) failed.push_back("a body fell");
+    if (!pendulum && !w.inMotion && !(maxDrift < 1e-3))
       failed.push_back("the top body drifted " + shown(maxDrift) + " m");
     if (swing) {
       if (crossings.size() < std::max<size_t>(expectedCrossings, 1))
@@ -304,7 +360,9 @@ int main(int argc, char **argv) {
         failed.push_back("the pendulum's swing amplitude is off by " +
                          shown(100 * maxAmplitudeError) + "%");
     }
-    if (!(maxExcess <= kMaxPenetrationExcess))
+    // The bound holds for slowly turning bodies (kMaxPenetrationExcess): not for bricks
+    // tumbling off a wall, whose excess the summary still reports.
+    if (!w.inMotion && !(maxExcess <= kMaxPenetrationExcess))
       failed.push_back("a contact penetrated " + shown(maxExcess) +
                        " m deeper than the Baumgarte correction leaves it");
     if (cadmm && unsolved)

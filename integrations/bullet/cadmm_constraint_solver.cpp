@@ -28,6 +28,11 @@ CadmmConstraintSolver::CadmmConstraintSolver(SolverOptions options) : options_(o
     cadmm_settings_free(settings_);
     throw Error("cadmm_bullet: invalid iteration limit " + std::to_string(options_.maxIterations));
   }
+  if (options_.timeLimit > 0 &&
+      cadmm_settings_set_time_limit(settings_, options_.timeLimit) != CADMM_OK) {
+    cadmm_settings_free(settings_);
+    throw Error("cadmm_bullet: invalid time limit " + std::to_string(options_.timeLimit));
+  }
 }
 
 CadmmConstraintSolver::~CadmmConstraintSolver() {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 namespace cadmm_bullet {
 
@@ -39,6 +40,20 @@ btRigidBody *StackWorld::addBox(const btVector3 &he, double mass, const btVector
   return b;
 }
 
+btRigidBody *StackWorld::addSphere(double rad, double mass, const btVector3 &p) {
+  shapes_.push_back(std::make_unique<btSphereShape>(rad));
+  btVector3 inertia(0, 0, 0);
+  shapes_.back()->calculateLocalInertia(mass, inertia);
+  states_.push_back(std::make_unique<btDefaultMotionState>(btTransform(btQuaternion::getIdentity(), p)));
+  btRigidBody::btRigidBodyConstructionInfo ci(mass, states_.back().get(), shapes_.back().get(), inertia);
+  ci.m_friction = kFriction;
+  bodies_.push_back(std::make_unique<btRigidBody>(ci));
+  btRigidBody *b = bodies_.back().get();
+  b->setActivationState(DISABLE_DEACTIVATION);
+  world_->addRigidBody(b);
+  return b;
+}
+
 void StackWorld::addJoint(std::unique_ptr<btTypedConstraint> j) {
   joints_.push_back(std::move(j));
   world_->addConstraint(joints_.back().get(), true);
@@ -62,8 +77,76 @@ StackWorld::Penetration StackWorld::penetration(double erp) const {
   return p;
 }
 
-bool buildScene(const std::string &name, StackWorld &w) {
-  if (name == "tower") {  // five boxes, masses 1, 100, 1, 100, 1 from the bottom
+namespace {
+
+// Running bond: rows of 10 bricks, every other row shifted by half a brick; the bricks of a
+// row touch side to side (no gap), as a real wall's do.
+void buildWall(StackWorld &w, int count, std::mt19937 &rng) {
+  const btVector3 brick(0.2, 0.1, 0.1);
+  for (int i = 0; i < count; ++i) {
+    const int row = i / 10, k = i % 10;
+    w.addBox(brick, 2, btVector3(0.4 * (k - 4.5) + (row % 2 ? 0.2 : 0), 0.1 + 0.2 * row, 0));
+  }
+  std::uniform_real_distribution<double> aim(-0.3, 0.3);
+  const double top = 0.2 * ((count + 9) / 10);
+  w.ball = {1.0, 0.25, 20, btVector3(aim(rng), 0.6 * top + 0.3, -3), btVector3(0, 1.5, 8)};
+  w.inMotion = true;
+}
+
+// Layers of 8 x 8 boxes above a 3 x 3 m bin (static floor and walls 1 m high).
+void buildBin(StackWorld &w, int count, std::mt19937 &rng) {
+  for (int side = 0; side < 4; ++side) {
+    const double s = side % 2 ? 1.6 : -1.6;
+    const bool alongX = side < 2;
+    w.addBox(alongX ? btVector3(1.7, 0.5, 0.1) : btVector3(0.1, 0.5, 1.7), 0,
+             alongX ? btVector3(0, 0.5, s) : btVector3(s, 0.5, 0));
+  }
+  std::uniform_real_distribution<double> half(0.12, 0.18), mass(1, 5), tilt(-0.3, 0.3),
+      shift(-0.01, 0.01);
+  for (int i = 0; i < count; ++i) {
+    const int layer = i / 64, x = i % 8, z = (i / 8) % 8;
+    const btVector3 he(half(rng), half(rng), half(rng));
+    const double m = mass(rng);
+    const btQuaternion q(tilt(rng), tilt(rng), tilt(rng));  // yaw, pitch, roll
+    w.addBox(he, m, btVector3(0.36 * (x - 3.5) + shift(rng), 0.3 + 0.4 * layer, 0.36 * (z - 3.5) + shift(rng)), q);
+  }
+  w.inMotion = true;
+}
+
+// Links of 30 cm, 10 cm apart, joined at the middle of the gaps; the first hangs from a fixed
+// point 9 m up. Released horizontal, the chain swings down into a 1.5 m box standing below.
+void buildChain(StackWorld &w, int count) {
+  const btVector3 pivot(0, 9, 0), link(0.15, 0.15, 0.15);
+  btRigidBody *prev = nullptr;
+  for (int k = 0; k < count; ++k) {
+    btRigidBody *b = w.addBox(link, 1, pivot + btVector3(0.2 + 0.4 * k, 0, 0));
+    if (prev)
+      w.addJoint(std::make_unique<btPoint2PointConstraint>(*prev, *b, btVector3(0.2, 0, 0),
+                                                           btVector3(-0.2, 0, 0)));
+    else
+      w.addJoint(std::make_unique<btPoint2PointConstraint>(*b, btVector3(-0.2, 0, 0)));
+    prev = b;
+  }
+  w.addBox(btVector3(0.5, 0.75, 0.5), 5, btVector3(0.6, 0.75, 0));
+  w.inMotion = true;
+}
+
+}  // namespace
+
+bool buildScene(const std::string &name, StackWorld &w, int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  if (name == "big-pyramid") {
+    const int base = count > 0 ? count : 15;
+    for (int row = 0; row < base; ++row)
+      for (int k = 0; k < base - row; ++k)
+        w.addBox(kCube, 1, btVector3(1.05 * (k - (base - 1 - row) / 2.0), 0.5 + row, 0));
+  } else if (name == "wall") {
+    buildWall(w, count > 0 ? count : 100, rng);
+  } else if (name == "bin") {
+    buildBin(w, count > 0 ? count : 512, rng);
+  } else if (name == "chain") {
+    buildChain(w, count > 0 ? count : 20);
+  } else if (name == "tower") {  // five boxes, masses 1, 100, 1, 100, 1 from the bottom
     for (int i = 0; i < 5; ++i) w.addBox(kCube, i % 2 ? 100 : 1, btVector3(0, 0.5 + i, 0));
   } else if (name == "drop") {  // the tower with 10 cm gaps: contacts appear as it settles
     for (int i = 0; i < 5; ++i) {

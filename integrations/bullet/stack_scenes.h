@@ -20,6 +20,8 @@ class StackWorld {
   // A box (half extents he) of the given mass (0: static) centred at p, turned by q.
   btRigidBody *addBox(const btVector3 &he, double mass, const btVector3 &p,
                       const btQuaternion &q = btQuaternion::getIdentity());
+  // A sphere of radius rad and the given mass centred at p (dynamic, not one of `boxes`).
+  btRigidBody *addSphere(double rad, double mass, const btVector3 &p);
   // A joint between bodies of this world (collisions between them disabled, as usual).
   void addJoint(std::unique_ptr<btTypedConstraint> j);
   btDiscreteDynamicsWorld &world() { return *world_; }
@@ -44,6 +46,16 @@ class StackWorld {
     double length = 0, amplitude = 0, side = 0;
   } swing;
 
+  // Scenes in motion ("wall", "bin", "chain"): bodies fall, topple and collide, so the
+  // at-rest checks (fell, drift) do not apply.
+  bool inMotion = false;
+  // Scene "wall": a ball of this radius and mass thrown from `from` at `velocity` (m/s) once
+  // the run reaches `time` seconds (radius 0: no ball).
+  struct Throw {
+    double time = 0, radius = 0, mass = 0;
+    btVector3 from{0, 0, 0}, velocity{0, 0, 0};
+  } ball;
+
  private:
   btDefaultCollisionConfiguration config_;
   btCollisionDispatcher dispatcher_{&config_};
@@ -57,9 +69,18 @@ class StackWorld {
 };
 
 // Fills the world with scene "tower", "drop" (the tower falling into place), "mass-ratio-100",
-// "mass-ratio-1000", "pyramid", "pendulum" (two boxes on btPoint2PointConstraint joints) or
-// "simple-pendulum" (one small box on one, see StackWorld::Swing); false for an unknown name.
-bool buildScene(const std::string &name, StackWorld &w);
+// "mass-ratio-1000", "pyramid", "pendulum" (two boxes on btPoint2PointConstraint joints),
+// "simple-pendulum" (one small box on one, see StackWorld::Swing), or one of the larger scenes
+// sized by `count` (0: its default) and varied by `seed`:
+//  - "big-pyramid": rows of count (15), count - 1, ..., 1 boxes (120), 5 cm apart in a row;
+//  - "wall": count (100) bricks of 40 x 20 x 20 cm in running bond, rows of 10, touching,
+//    hit by a 20 kg ball at 8 m/s after 1 s (StackWorld::Throw), its aim varied by seed;
+//  - "bin": count (512) boxes of 1 to 5 kg and 24 to 36 cm, dropped in layers into a 3 x 3 m
+//    bin, sizes, masses and tilts drawn from seed;
+//  - "chain": count (20) boxes of 30 cm on btPoint2PointConstraint joints, hanging from a
+//    fixed point, released horizontal, swinging into a standing box.
+// False for an unknown name.
+bool buildScene(const std::string &name, StackWorld &w, int count = 0, unsigned seed = 1);
 // Adds a hinge between the two lowest boxes (a joint type the cadmm solver refuses).
 void addHinge(StackWorld &w);
 

@@ -91,6 +91,15 @@ btScalar CadmmConstraintSolver::solveGroup(btCollisionObject **bodies, int numBo
     check(cadmm_solver_warm_start(solver_, r0.data(), v0.data()), "cadmm_solver_warm_start",
           solver_);
   }
+  if (options_.timeLimit > 0) {
+    // The budget is the whole solveGroup's: the solve gets what assembly, the values'
+    // factorization and the warm start left of it (a little at least, so that it measures
+    // the warm start and hands back its best iterate).
+    const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    check(cadmm_settings_set_time_limit(settings_, std::max(options_.timeLimit - spent, 1e-6)),
+          "cadmm_settings_set_time_limit");
+    check(cadmm_solver_update_settings(solver_, settings_), "cadmm_solver_update_settings", solver_);
+  }
   cadmm_status status = 0;
   check(cadmm_solver_solve(solver_, &status), "cadmm_solver_solve", solver_);
 

@@ -36,8 +36,9 @@ struct SolverOptions {
   uint32_t maxIterations = 0;  // cadmm's iteration limit; 0: cadmm's default
   bool warmStart = true;       // start from the previous step's impulses and velocities
   double erp = -1;             // Baumgarte rate of the contacts; < 0: the world's m_erp2
-  // Wall-clock budget of one solveGroup's solve in seconds (cadmm's time limit; 0: none).
-  // A solve stopped by it hands back its best measured iterate, counted in `unsolved`.
+  // Wall-clock budget of one solveGroup in seconds (0: none): the solve gets cadmm's time
+  // limit set to what assembly and factorization left of it. A solve stopped by it hands
+  // back its best measured iterate, counted in `unsolved`.
   double timeLimit = 0;
   // Called after each group's solve, once its answer is written back: lets a caller check
   // the answer on its own (the driver's --check re-measures it).

@@ -1,29 +1,57 @@
-/* The test scenes of cadmm_ode_stack: boxes stacked on a static ground plane. */
+/* The test scenes of cadmm_ode_stack: boxes on a static ground plane, z up. */
 #ifndef CADMM_ODE_SCENES_H
 #define CADMM_ODE_SCENES_H
 
 #include <ode/ode.h>
 #include <stddef.h>
 
-#define SCENE_MAX_BODIES 16
+/* The largest --count a scene takes (big-pyramid's count is its base row). */
+#define SCENE_MAX_COUNT 100000
+#define SCENE_MAX_BASE 300
 
 typedef struct scene {
     dWorldID world;
     dSpaceID space;
     dGeomID ground;
     size_t n;   /* bodies */
+    size_t cap; /* room in the arrays below (the wall's ball is added during the run) */
     size_t top; /* the body whose drift is reported */
-    dBodyID bodies[SCENE_MAX_BODIES];
-    dGeomID geoms[SCENE_MAX_BODIES];
-    double half[SCENE_MAX_BODIES][3];  /* box half extents */
-    double start[SCENE_MAX_BODIES][3]; /* initial positions */
+    dBodyID *bodies;
+    dGeomID *geoms;
+    double (*half)[3];  /* box half extents (a sphere's radius thrice) */
+    double (*start)[3]; /* initial positions */
     double launch; /* "slide": the box's initial speed along +x (m/s); 0 for the stacks */
+    /* "wall", "bin": bodies fall, topple and collide, so the at-rest checks (fell, drift,
+     * the resting penetration bound) do not apply. */
+    int in_motion;
+    /* "wall": a sphere of this radius and mass created at the start of step `step` (0-based)
+     * at `from` with velocity `velocity` (radius 0: none). */
+    struct {
+        size_t step;
+        double radius, mass, from[3], velocity[3];
+    } ball;
 } scene;
 
-/* Builds "tower", "mass-ratio-100", "mass-ratio-1000", "pyramid" or "slide" (one box on the
- * ground launched along x at `launch`); 0 on success, -1 for an unknown name. The world has
- * gravity -9.81 z and ODE's default parameters except a 1 mm contact surface layer. */
-int scene_build(scene *s, const char *name);
+/* Builds "tower", "mass-ratio-100", "mass-ratio-1000", "pyramid", "slide" (one box on the
+ * ground launched along x at `launch`), or one of the scenes sized by `count` (0: its
+ * default) and varied by `seed`:
+ *  - "big-pyramid": rows of count (15), count - 1, ..., 1 unit-mass boxes (120), 5 cm apart
+ *    in a row, each resting on two below;
+ *  - "wall": count (100) bricks of 0.4 x 0.2 x 0.2 m and 2 kg in running bond, rows of 10
+ *    touching side to side, hit at 1 s by a 20 kg sphere of radius 0.25 m thrown at 8 m/s
+ *    towards 0.6 of the wall's height, sideways offset drawn from seed in [-0.3, 0.3] m;
+ *  - "bin": count (512) boxes of 1 to 5 kg, half extents 0.12 to 0.18 m and tilts within
+ *    0.3 rad drawn from seed, in layers of 8 x 8, dropped into a 3 x 3 m bin whose four
+ *    walls (1 m high) are static geoms.
+ * The other scenes ignore count and seed. The world has gravity -9.81 z and ODE's default
+ * parameters except a 1 mm contact surface layer. 0 on success, -1 for an unknown name, -2
+ * when out of memory or count is above SCENE_MAX_COUNT (big-pyramid: SCENE_MAX_BASE). */
+int scene_build(scene *s, const char *name, long count, unsigned long seed);
+
+/* Called before each step (0-based): adds the wall's ball at its step (its room is kept
+ * by scene_build). */
+void scene_before_step(scene *s, size_t step);
+
 void scene_free(scene *s);
 
 /* Names accepted by scene_build, for messages. */

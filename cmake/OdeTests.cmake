@@ -7,9 +7,11 @@
 # its driver: cadmm on every scene with --check (stacks: nothing falls, top drift below 1 mm;
 # slide: the launched box stops where Coulomb's law says; every step solved, every answer
 # re-measured by the driver's own error measure within 1e-8, no contact deeper than 1.5 mm),
-# ODE's two solvers once each (they must run), and the ode_check_* negative controls: runs
-# where one check must fail with its own message (cmake/ExpectCheckFailure.cmake), ODE
-# QuickStep letting the 1000:1 stack collapse among them.
+# the larger scenes (big-pyramid at rest, wall and bin in motion) smaller than their defaults
+# at an engine's tolerance of 1e-4, ODE's two solvers once each (they must run), and the
+# ode_check_* negative controls: runs where one check must fail with its own message
+# (cmake/ExpectCheckFailure.cmake), ODE QuickStep letting the 1000:1 stack collapse among
+# them.
 find_package(PkgConfig QUIET)
 if(PKG_CONFIG_FOUND)
   pkg_check_modules(CADMM_ODE QUIET ode)
@@ -62,6 +64,15 @@ if(CADMM_ODE_FOUND)
   endforeach()
   ode_stack(cadmm_slide 0 --scene slide --solver cadmm --seconds 1.5 --json --check)
   ode_stack(cadmm_cold_tower 0 --scene tower --solver cadmm --seconds 1 --json --check --cold)
+  # The larger scenes at 1e-4: every step solved and re-measured within 1e-4; the 120-box
+  # pyramid keeps the at-rest checks, the wall (30 bricks, the ball at 1 s) and the bin (64
+  # boxes) in motion leave them out.
+  ode_stack(cadmm_big_pyramid 0 --scene big-pyramid --solver cadmm --seconds 1 --tolerance 1e-4
+            --json --check)
+  ode_stack(cadmm_wall 0 --scene wall --count 30 --solver cadmm --seconds 1.5 --tolerance 1e-4
+            --json --check)
+  ode_stack(cadmm_bin 0 --scene bin --count 64 --seed 3 --solver cadmm --seconds 1.5
+            --tolerance 1e-4 --json --check)
   ode_stack(quickstep_runs 0 --scene pyramid --solver ode-quickstep --seconds 1 --json)
   ode_stack(step_runs 0 --scene mass-ratio-100 --solver ode-step --seconds 1 --json)
   ode_check_fails(ode_check_fails_quickstep EXPECT "check failed: a body fell"

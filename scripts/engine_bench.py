@@ -4,7 +4,8 @@
 one run, each configuration `--repeats` times (medians reported).
 
     python3 scripts/engine_bench.py --driver build-bullet/cadmm_bullet_stack \\
-        [--scenes wall,bin,chain,big-pyramid] [--seconds 3] [--repeats 3] [--out DIR]
+        [--scenes wall,bin,chain,big-pyramid] [--solvers "cadmm 1e-4,Bullet SI100"]
+        [--seconds 3] [--repeats 3] [--out DIR]
 
 Per scene and solver: mean, p99 and longest step (ms of solveGroup, medians over the
 repeats), the worst error of the answers by the common measure (cadmm_problem_error on the
@@ -50,17 +51,22 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--driver", required=True, help="cadmm_bullet_stack")
     ap.add_argument("--scenes", default="wall,bin,chain,big-pyramid")
+    ap.add_argument("--solvers", default=",".join(name for name, _ in SOLVERS),
+                    help="comma-separated labels of SOLVERS to run")
     ap.add_argument("--seconds", type=float, default=3.0, help="simulated seconds per run")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--timeout", type=float, default=900, help="wall seconds per run")
     ap.add_argument("--out", default="target/engine-bench")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
+    chosen = [(name, args) for name, args in SOLVERS if name in a.solvers.split(",")]
+    if not chosen:
+        ap.error(f"--solvers: none of {a.solvers!r} is one of {[n for n, _ in SOLVERS]}")
     rows, table = [], {}
     with open(os.path.join(a.out, "engine.jsonl"), "w") as log:
         for scene in a.scenes.split(","):
             for rep in range(a.repeats):  # interleaved: the machine's load hits all alike
-                for name, args in SOLVERS:
+                for name, args in chosen:
                     r = run(a.driver, scene, args, a.seconds, a.timeout)
                     r.update(label=name, repeat=rep, scene=scene)
                     log.write(json.dumps(r) + "\n")

@@ -4,6 +4,8 @@
 //! Costs are counted in ADMM iterations, not seconds, so that the decision, and the solve,
 //! do not depend on the machine's load.
 
+use crate::tuning::HANDOVER_ERROR;
+
 /// A stall is an error not halved over the window: the hybrid rule of docs/algorithms.md §9.3.
 const STALL_RATIO: f64 = 0.5;
 
@@ -115,15 +117,19 @@ impl HandoverMonitor {
     /// with the decades still to go and Newton's hardly does (Newton took 111 to 175 steps
     /// from stalls at 4e-4 on Box_Stacks-i1000-444-8 at 1e-8, where a phase cut short
     /// at ADMM's predicted iterations tripled the solve). Within that factor ADMM is near
-    /// the end, and the phase may take the steps that cost the iterations this loop has
-    /// run, so that a rescue that does not converge at most doubles what the loop cost:
+    /// the end, and above [`HANDOVER_ERROR`] Newton is not yet where it converges fast: the
+    /// phase may then take the steps that cost the iterations this loop has run, so that a
+    /// rescue that does not converge at most doubles what the loop cost:
     /// unbounded, rescues on Bullet scenes' steps at 1e-4 (a wall hit by a ball, boxes
     /// falling into a bin) took 80 to 280 steps, up to 2 s, where ADMM alone finished in
     /// 0.1 to 0.6 s.
     pub(super) fn newton_budget(&self) -> Option<usize> {
+        // Below the handover error Newton is where it converges fast; a stall there (after
+        // a failed phase lowered `error_below`) keeps its unbounded rescue.
+        let far = self.last_error > RESCUE_FAR * self.tolerance;
         let iterations = match self.polishing {
             true => self.rule.budget * self.admm_iterations_left,
-            false if self.last_error > RESCUE_FAR * self.tolerance => return None,
+            false if far || self.last_error <= HANDOVER_ERROR => return None,
             false => self.iterations as f64,
         };
         let steps = iterations / self.rule.newton_step_iterations;

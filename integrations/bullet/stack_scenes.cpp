@@ -24,34 +24,31 @@ StackWorld::~StackWorld() {
   for (auto &b : bodies_) world_->removeRigidBody(b.get());
 }
 
-btRigidBody *StackWorld::addBox(const btVector3 &he, double mass, const btVector3 &p,
-                                const btQuaternion &q) {
-  shapes_.push_back(std::make_unique<btBoxShape>(he));
+btRigidBody *StackWorld::addBody(std::unique_ptr<btCollisionShape> shape, double mass,
+                                 const btTransform &at) {
   btVector3 inertia(0, 0, 0);
-  if (mass > 0) shapes_.back()->calculateLocalInertia(mass, inertia);
-  states_.push_back(std::make_unique<btDefaultMotionState>(btTransform(q, p)));
+  if (mass > 0) shape->calculateLocalInertia(mass, inertia);
+  shapes_.push_back(std::move(shape));
+  states_.push_back(std::make_unique<btDefaultMotionState>(at));
   btRigidBody::btRigidBodyConstructionInfo ci(mass, states_.back().get(), shapes_.back().get(), inertia);
   ci.m_friction = kFriction;
   bodies_.push_back(std::make_unique<btRigidBody>(ci));
   btRigidBody *b = bodies_.back().get();
   b->setActivationState(DISABLE_DEACTIVATION);  // every step is solved, none skipped by sleeping
   world_->addRigidBody(b);
+  return b;
+}
+
+btRigidBody *StackWorld::addBox(const btVector3 &he, double mass, const btVector3 &p,
+                                const btQuaternion &q) {
+  btRigidBody *b = addBody(std::make_unique<btBoxShape>(he), mass, btTransform(q, p));
   if (mass > 0) boxes.push_back(b), rest.push_back(p);
   return b;
 }
 
 btRigidBody *StackWorld::addSphere(double rad, double mass, const btVector3 &p) {
-  shapes_.push_back(std::make_unique<btSphereShape>(rad));
-  btVector3 inertia(0, 0, 0);
-  shapes_.back()->calculateLocalInertia(mass, inertia);
-  states_.push_back(std::make_unique<btDefaultMotionState>(btTransform(btQuaternion::getIdentity(), p)));
-  btRigidBody::btRigidBodyConstructionInfo ci(mass, states_.back().get(), shapes_.back().get(), inertia);
-  ci.m_friction = kFriction;
-  bodies_.push_back(std::make_unique<btRigidBody>(ci));
-  btRigidBody *b = bodies_.back().get();
-  b->setActivationState(DISABLE_DEACTIVATION);
-  world_->addRigidBody(b);
-  return b;
+  return addBody(std::make_unique<btSphereShape>(rad), mass,
+                 btTransform(btQuaternion::getIdentity(), p));
 }
 
 void StackWorld::addJoint(std::unique_ptr<btTypedConstraint> j) {

@@ -57,6 +57,9 @@ class StackWorld {
   } ball;
 
  private:
+  // A body of this shape and mass (0: static) placed at `at`, owned by the world.
+  btRigidBody *addBody(std::unique_ptr<btCollisionShape> shape, double mass, const btTransform &at);
+
   btDefaultCollisionConfiguration config_;
   btCollisionDispatcher dispatcher_{&config_};
   btDbvtBroadphase broadphase_;

@@ -250,6 +250,11 @@ typedef struct cadmm_stats {
      * factorized; see `cadmm_settings_set_linear_solver`).
      */
     uint64_t linear_iterations;
+    /**
+     * Gauss-Seidel sweeps of a solver built with a time limit (not counted in
+     * `iterations`; 0 otherwise).
+     */
+    uint64_t gauss_seidel_sweeps;
 } cadmm_stats;
 
 /**

@@ -488,11 +488,6 @@ impl CoupledSolver {
         self.form.write_solution(&self.state, out);
     }
 
-    /// Length of `v` (0 for a local problem).
-    pub(crate) fn n_velocities(&self) -> usize {
-        self.form.n_velocities()
-    }
-
     /// Statistics of the last solve.
     pub(crate) fn stats(&self) -> &Stats {
         &self.stats

@@ -23,6 +23,7 @@
 // measure in [`measure`], FCLib I/O in [`fclib`] and the C API in [`ffi`]. Everything else is
 // internal and may change between versions.
 pub mod admm;
+mod budgeted;
 mod certificate;
 mod cone;
 mod contact;
@@ -37,6 +38,7 @@ pub mod fclib;
 /// The C API (`include/cadmm.h`): opaque handles, result codes, panic boundary. From Rust,
 /// use the types re-exported at the crate root instead.
 pub mod ffi;
+mod gauss_seidel;
 mod linsys;
 pub mod measure;
 /// Semismooth Newton (Alart-Curnier) phase.

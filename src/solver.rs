@@ -1,8 +1,11 @@
 //! The public solver, a facade over the scene's structure: a problem that is one island
 //! (or whose islands are off) is solved as it is, by one [`CoupledSolver`], with no copy;
 //! any other is split into its islands ([`Scene`]), each solved by the strategy chosen for
-//! it when the solver is built (docs/algorithms.md §12).
+//! it when the solver is built (docs/algorithms.md §12). A solver built with a time limit
+//! starts each solve with Gauss-Seidel sweeps when the problem suits them, and builds its
+//! islands only when the sweeps hand over (docs/algorithms.md §16).
 
+use crate::budgeted::BudgetedStart;
 use crate::coupled::{CoupledSolver, NewtonFirst};
 use crate::problem::{NewValues, Problem};
 use crate::scene::islands::{partition_global, partition_local};
@@ -18,7 +21,10 @@ pub struct Solver {
     /// The settings the parts work to: the tolerance less [`ROUND_OFF_MARGIN`].
     inner: Settings,
     resolved: Resolved,
-    layout: Layout,
+    /// The islands and their solvers; `None` while a budgeted start has not needed them.
+    layout: Option<Layout>,
+    /// The Gauss-Seidel phase of a solver built with a time limit, when the problem suits it.
+    budgeted: Option<Box<BudgetedStart>>,
     stats: Stats,
     island_stats: Vec<Stats>,
     /// The solution the last solve handed back (zeros before the first solve), kept so
@@ -32,6 +38,66 @@ enum Layout {
     Whole(Box<CoupledSolver>),
     /// As islands.
     Split(Box<Scene>),
+}
+
+impl Layout {
+    /// Finds the contact islands (unless switched off), picks each island's first rho and
+    /// factorizes; also returns the number of islands.
+    fn new(problem: Problem, settings: &Settings) -> Result<(Self, usize), Error> {
+        let partition = match (&problem, settings.islands) {
+            (_, false) => None,
+            (Problem::Global(g), true) => Some(partition_global(g)),
+            (Problem::Local(l), true) => Some(partition_local(l)),
+        };
+        Ok(match partition {
+            Some(p) if !p.is_whole() => {
+                let split = Scene::new(problem, p, settings)?;
+                let n = split.n_islands;
+                (Layout::Split(Box::new(split)), n)
+            }
+            _ => {
+                let islands = usize::from(problem.n_contacts() > 0);
+                let mut solver =
+                    CoupledSolver::new(problem, settings.clone(), NewtonFirst::IfSmall)?;
+                solver.set_linear_threads(settings.threads);
+                (Layout::Whole(Box::new(solver)), islands)
+            }
+        })
+    }
+
+    fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
+        match self {
+            Layout::Whole(s) => s.warm_start(r, v),
+            Layout::Split(split) => split.warm_start(r, v),
+        }
+    }
+
+    fn update_settings(&mut self, settings: &Settings) {
+        match self {
+            Layout::Whole(s) => {
+                s.update_settings(settings);
+                s.set_linear_threads(settings.threads);
+            }
+            Layout::Split(split) => split.update_settings(settings),
+        }
+    }
+
+    /// Solves; the status and the whole problem's error, the solution left in `out`.
+    fn solve(
+        &mut self,
+        settings: &Settings,
+        t0: Instant,
+        out: &mut Solution,
+    ) -> Result<(Status, f64), Error> {
+        match self {
+            Layout::Whole(s) => {
+                let status = s.solve()?;
+                s.write_solution(out);
+                Ok((status, s.stats().error))
+            }
+            Layout::Split(split) => split.solve(settings, t0, out),
+        }
+    }
 }
 
 /// What the parts work to: the user's settings with the tolerance less
@@ -53,29 +119,21 @@ impl Solver {
         problem.validate()?;
         let user = settings;
         let settings = working_settings(&user);
-        let partition = match (&problem, settings.islands) {
-            (_, false) => None,
-            (Problem::Global(g), true) => Some(partition_global(g)),
-            (Problem::Local(l), true) => Some(partition_local(l)),
-        };
         let mut solution = Solution::default();
         solution.zeroed(
             3 * problem.n_contacts(),
             problem.n_velocities(),
             problem.n_joints(),
         );
-        let (layout, n_islands) = match partition {
-            Some(p) if !p.is_whole() => {
-                let split = Scene::new(problem, p, &settings)?;
-                let n = split.n_islands;
-                (Layout::Split(Box::new(split)), n)
-            }
-            _ => {
+        let (layout, budgeted, n_islands) = match BudgetedStart::sweeps_for(&problem, &settings) {
+            Some(sweeps) => {
                 let islands = usize::from(problem.n_contacts() > 0);
-                let mut solver =
-                    CoupledSolver::new(problem, settings.clone(), NewtonFirst::IfSmall)?;
-                solver.set_linear_threads(settings.threads);
-                (Layout::Whole(Box::new(solver)), islands)
+                let start = BudgetedStart::new(problem, sweeps)?;
+                (None, Some(Box::new(start)), islands)
+            }
+            None => {
+                let (layout, n) = Layout::new(problem, &settings)?;
+                (Some(layout), None, n)
             }
         };
         let mut solver = Self {
@@ -83,6 +141,7 @@ impl Solver {
             settings: user,
             inner: settings,
             layout,
+            budgeted,
             stats: Stats::default(),
             island_stats: Vec::new(),
             solution,
@@ -105,12 +164,8 @@ impl Solver {
         self.settings.check_update(&settings)?;
         self.inner = working_settings(&settings);
         self.settings = settings;
-        match &mut self.layout {
-            Layout::Whole(s) => {
-                s.update_settings(&self.inner);
-                s.set_linear_threads(self.inner.threads);
-            }
-            Layout::Split(split) => split.update_settings(&self.inner),
+        if let Some(layout) = &mut self.layout {
+            layout.update_settings(&self.inner);
         }
         Ok(())
     }
@@ -125,10 +180,29 @@ impl Solver {
     /// [`Solver::update_values`].
     pub fn update(&mut self, problem: Problem) -> Result<(), Error> {
         problem.validate()?;
-        match &mut self.layout {
-            Layout::Whole(s) => s.update(problem),
-            Layout::Split(split) => split.update(problem),
+        match (&mut self.layout, self.budgeted.is_some()) {
+            (Some(Layout::Whole(s)), true) => s.update(problem.clone())?,
+            (Some(Layout::Split(split)), true) => split.update(problem.clone())?,
+            (Some(Layout::Whole(s)), false) => return s.update(problem),
+            (Some(Layout::Split(split)), false) => return split.update(problem),
+            (None, _) => {}
         }
+        let fits = self.budgeted.as_mut().expect("budgeted").update(problem)?;
+        self.keep_budgeted_if(fits)
+    }
+
+    /// Drops the Gauss-Seidel start when the problem no longer suits it (M lost its
+    /// symmetry), building the islands from its problem if they are not yet.
+    fn keep_budgeted_if(&mut self, fits: bool) -> Result<(), Error> {
+        if fits {
+            return Ok(());
+        }
+        if self.layout.is_none() {
+            let problem = self.budgeted.as_ref().expect("budgeted").problem();
+            self.layout = Some(Layout::new(problem, &self.inner)?.0);
+        }
+        self.budgeted = None;
+        Ok(())
     }
 
     /// Takes new values for the problem on the same sizes and sparsity patterns (the next
@@ -142,17 +216,29 @@ impl Solver {
     /// and the solver goes on solving those. After a successful update the next solve
     /// starts cold unless [`Solver::warm_start`] is called after this.
     pub fn update_values(&mut self, values: &NewValues) -> Result<(), Error> {
-        match &mut self.layout {
-            Layout::Whole(s) => s.update_values(values),
-            Layout::Split(split) => split.update_values(values),
+        if let Some(layout) = &mut self.layout {
+            match layout {
+                Layout::Whole(s) => s.update_values(values)?,
+                Layout::Split(split) => split.update_values(values)?,
+            }
+        }
+        match &mut self.budgeted {
+            Some(b) => {
+                let fits = b.update_values(values)?;
+                self.keep_budgeted_if(fits)
+            }
+            None => Ok(()),
         }
     }
 
     /// Starts the next solve from impulses `r` (and velocities `v`, global form).
     pub fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
+        if let Some(b) = &mut self.budgeted {
+            b.warm_start(r, v)?;
+        }
         match &mut self.layout {
-            Layout::Whole(s) => s.warm_start(r, v),
-            Layout::Split(split) => split.warm_start(r, v),
+            Some(layout) => layout.warm_start(r, v),
+            None => Ok(()),
         }
     }
 
@@ -162,22 +248,85 @@ impl Solver {
     /// when the assembled solution meets the tolerance by the whole problem's measure.
     pub fn solve(&mut self) -> Result<Status, Error> {
         let t0 = Instant::now();
-        let (status, error) = match &mut self.layout {
-            Layout::Whole(s) => {
-                let status = s.solve()?;
-                s.write_solution(&mut self.solution);
-                (status, s.stats().error)
-            }
-            Layout::Split(split) => split.solve(&self.inner, t0, &mut self.solution)?,
+        let Some(budgeted) = &mut self.budgeted else {
+            let layout = self.layout.as_mut().expect("built unless budgeted");
+            let (status, error) = layout.solve(&self.inner, t0, &mut self.solution)?;
+            self.collect_stats(status, error, t0.elapsed().as_secs_f64());
+            return Ok(status);
         };
-        self.collect_stats(status, error, t0.elapsed().as_secs_f64());
+        let limit = std::time::Duration::try_from_secs_f64(self.inner.time_limit).ok();
+        let deadline = limit.and_then(|l| t0.checked_add(l));
+        let swept = budgeted.run(self.inner.tolerance, deadline, self.inner.max_iterations);
+        budgeted.write_solution(&mut self.solution);
+        if let Some(status) = swept.status {
+            self.collect_swept(status, swept.sweeps, swept.error, t0);
+            return Ok(status);
+        }
+        self.hand_over(swept.sweeps, swept.error, t0)
+    }
+
+    /// After sweeps that hand over: the islands (built now if need be, and then started
+    /// from the solve's warm start if it had one) solve within the time left, and the
+    /// better answer by the measure is handed back.
+    fn hand_over(&mut self, sweeps: usize, swept_error: f64, t0: Instant) -> Result<Status, Error> {
+        if self.layout.is_none() {
+            let budgeted = self.budgeted.as_ref().expect("budgeted");
+            let built = Instant::now();
+            let (mut layout, islands) = Layout::new(budgeted.problem(), &self.inner)?;
+            if let Some((r, v)) = budgeted.used_warm() {
+                layout.warm_start(r, v)?;
+            }
+            self.layout = Some(layout);
+            self.stats.islands = islands;
+            self.stats.setup_seconds += built.elapsed().as_secs_f64();
+        }
+        let left = Settings {
+            time_limit: (self.inner.time_limit - t0.elapsed().as_secs_f64()).max(0.0),
+            ..self.inner.clone()
+        };
+        // Not from the sweeps' iterate: that saved a quarter of the iterations on most FCLib
+        // Box_Stacks files but took 4 to 5 times as many on two (docs/algorithms.md §16),
+        // so the handover costs the sweeps and nothing else.
+        let layout = self.layout.as_mut().expect("built above");
+        layout.update_settings(&left);
+        let mut out = Solution::default();
+        let result = layout.solve(&left, Instant::now(), &mut out);
+        layout.update_settings(&self.inner);
+        let (status, error) = result?;
+        if error <= swept_error || status == Status::Solved {
+            self.solution = out;
+            self.collect_stats(status, error, t0.elapsed().as_secs_f64());
+        } else {
+            // The sweeps' answer stays (already in `self.solution`).
+            self.collect_stats(status, swept_error, t0.elapsed().as_secs_f64());
+        }
+        self.stats.gauss_seidel_sweeps = sweeps;
         Ok(status)
+    }
+
+    /// The statistics of a solve the sweeps ended.
+    fn collect_swept(&mut self, status: Status, sweeps: usize, error: f64, t0: Instant) {
+        let (islands, setup) = (self.stats.islands, self.stats.setup_seconds);
+        self.stats = Stats {
+            status,
+            error,
+            gauss_seidel_sweeps: sweeps,
+            solve_seconds: t0.elapsed().as_secs_f64(),
+            islands,
+            setup_seconds: setup,
+            ..Stats::default()
+        };
+        self.island_stats.clear();
     }
 
     /// Gathers the statistics of the last solve from the islands.
     fn collect_stats(&mut self, status: Status, error: f64, seconds: f64) {
         let (islands, setup) = (self.stats.islands, self.stats.setup_seconds);
-        match &self.layout {
+        let Some(layout) = &self.layout else {
+            self.island_stats.clear();
+            return;
+        };
+        match layout {
             Layout::Whole(s) => {
                 self.stats = *s.stats();
                 self.island_stats.clear();
@@ -230,10 +379,7 @@ impl Solver {
 
     /// Length of `v` (0 for a local problem).
     pub fn n_velocities(&self) -> usize {
-        match &self.layout {
-            Layout::Whole(s) => s.n_velocities(),
-            Layout::Split(split) => split.whole.n_velocities(),
-        }
+        self.solution.v.len()
     }
 
     /// Statistics of the last solve.
@@ -252,8 +398,9 @@ impl Solver {
     /// islands, the trace of the island that needed the most iterations.
     pub fn trace(&self) -> &[TracePoint] {
         match &self.layout {
-            Layout::Whole(s) => s.trace(),
-            Layout::Split(split) => split.slowest.map_or(&[][..], |k| &split.parts[k].trace),
+            Some(Layout::Whole(s)) => s.trace(),
+            Some(Layout::Split(split)) => split.slowest.map_or(&[][..], |k| &split.parts[k].trace),
+            None => &[],
         }
     }
 }

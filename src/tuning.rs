@@ -3,6 +3,37 @@
 //! not choices (the C API's limits) stay where they are
 //! defined; the ADMM loop's own constants stay beside the loop in `admm`.
 
+/// Steps of a contact's projected fixed point in a Gauss-Seidel sweep, when the contact
+/// neither separates nor sticks (`gauss_seidel.rs`). On a dumped step of a 100-brick wall
+/// after impact (1 140 contacts), 100 sweeps end at 1.2e-2 with one step, 8.7e-3 with five
+/// and 8.5e-3 with the contact solved exactly; five steps cost four times as much time a
+/// sweep (0.38 ms against 0.09 ms on the wall at rest), so one step gives the better
+/// answer within any budget.
+pub const GAUSS_SEIDEL_INNER: usize = 1;
+
+/// Gauss-Seidel sweeps are first measured after this many (then after each doubling): a
+/// measure costs about a sweep, and within an engine's budget of 20 to 60 sweeps measures
+/// after sweeps 1 and 2 took a tenth of it. A budgeted solve also runs at least this many
+/// sweeps, past its time limit if need be: fewer leave errors of 0.3 to 1 on the steps
+/// where a wall or a pile first lands (their new contacts start from no impulse), worse
+/// than an engine's own solver, and boxes of a 512-box bin sank 1.4 m into its floor when
+/// setup had left no time for any sweep.
+pub const GAUSS_SEIDEL_FIRST_MEASURE: usize = 4;
+
+/// Gauss-Seidel sweeps go on while, at the rate of their last doubling, they would meet
+/// the tolerance within this many times the time they took so far (two more doublings at
+/// most); beyond that ADMM and Newton finish sooner (the wall at rest at 1e-4: the sweeps
+/// would need 1 024 sweeps, 97 ms, where ADMM needs 28 ms).
+pub const GAUSS_SEIDEL_PATIENCE: f64 = 3.0;
+
+/// Gauss-Seidel sweeps hand over only with at least this many sweeps' time left: the
+/// coupled solve must first be built (a dumped wall step: 1 to 4 ms, 10 to 60 sweeps),
+/// and ADMM needs 600 to 1 600 iterations of 3 to 4 sweeps' time each at 1e-4 on the
+/// dumped wall and bin steps after impact. Handing over with 100 sweeps' time left, the
+/// wall's step ended at 0.15 within 7.5, 25 and 100 ms, where the sweeps alone reach
+/// 7.5e-3, 1.5e-3 and 3.1e-4.
+pub const GAUSS_SEIDEL_HANDOVER_SWEEPS: f64 = 2000.0;
+
 /// Systems of at most this many unknowns are factorized densely: below a few dozen
 /// unknowns a dense Cholesky or LU costs less than a sparse one's analysis, bookkeeping and
 /// allocations (an island of a box on the ground has 6 velocities and 12 contact rows).

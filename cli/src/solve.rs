@@ -151,7 +151,7 @@ pub fn run(a: SolveArgs) -> ExitCode {
         }
         let r = solver.resolved();
         Ok(format!(
-            "{{\"file\": \"{}\", \"form\": \"{form}\", \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"seconds\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"rho\": {}, \"refactorizations\": {}, \"variant\": \"{}\", \"initial_rho\": \"{}\", \"anderson\": {}, \"anderson_accepted\": {}, \"anderson_rejected\": {}, \"newton\": \"{:?}\", \"newton_iterations\": {}, \"newton_factorizations\": {}, \"newton_phases\": {}, \"newton_fallbacks\": {}, \"islands\": {}, \"linear_iterations\": {}}}",
+            "{{\"file\": \"{}\", \"form\": \"{form}\", \"status\": \"{}\", \"iterations\": {}, \"error\": {}, \"seconds\": {}, \"setup_seconds\": {}, \"solve_seconds\": {}, \"rho\": {}, \"refactorizations\": {}, \"variant\": \"{}\", \"initial_rho\": \"{}\", \"anderson\": {}, \"anderson_accepted\": {}, \"anderson_rejected\": {}, \"newton\": \"{:?}\", \"newton_iterations\": {}, \"newton_factorizations\": {}, \"newton_phases\": {}, \"newton_fallbacks\": {}, \"islands\": {}, \"linear_iterations\": {}, \"gauss_seidel_sweeps\": {}}}",
             file.display().to_string().replace('\\', "\\\\").replace('"', "\\\""),
             status.name(),
             st.iterations,
@@ -173,6 +173,7 @@ pub fn run(a: SolveArgs) -> ExitCode {
             st.newton_fallbacks,
             st.islands,
             st.linear_iterations,
+            st.gauss_seidel_sweeps,
         ))
     };
     match run() {

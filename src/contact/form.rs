@@ -25,8 +25,6 @@ pub(crate) trait ContactForm: Splitting + Send {
     fn ready_for(&mut self, rho: f64) -> Result<(), Error> {
         self.set_rho(rho)
     }
-    /// Length of `v` (0 for the local form).
-    fn n_velocities(&self) -> usize;
     /// The problem as the form holds it now.
     fn problem(&self) -> ProblemRef<'_>;
     /// Cold start: zero iterate, initial De Saxce shift.

@@ -383,10 +383,6 @@ impl ContactForm for ProblemSplitting {
         }
     }
 
-    fn n_velocities(&self) -> usize {
-        self.p.n()
-    }
-
     fn problem(&self) -> ProblemRef<'_> {
         ProblemRef::Global(&self.p)
     }

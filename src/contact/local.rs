@@ -224,10 +224,6 @@ impl ContactForm for LocalSplitting {
         self.take_values()
     }
 
-    fn n_velocities(&self) -> usize {
-        0
-    }
-
     fn problem(&self) -> ProblemRef<'_> {
         ProblemRef::Local(&self.p)
     }

@@ -60,6 +60,9 @@ pub struct cadmm_stats {
     /// Conjugate-gradient iterations of the matrix-free v-updates (0 when the systems are
     /// factorized; see `cadmm_settings_set_linear_solver`).
     pub linear_iterations: u64,
+    /// Gauss-Seidel sweeps of a solver built with a time limit (not counted in
+    /// `iterations`; 0 otherwise).
+    pub gauss_seidel_sweeps: u64,
 }
 
 /// Smallest `struct_size` accepted: the fields up to and including `solve_seconds`.
@@ -88,6 +91,7 @@ impl From<&Stats> for cadmm_stats {
             failed_island: s.failed_island.map_or(-1, |k| k as i64),
             rows: s.rows as u64,
             linear_iterations: s.linear_iterations as u64,
+            gauss_seidel_sweeps: s.gauss_seidel_sweeps as u64,
         }
     }
 }
@@ -136,7 +140,8 @@ pub(crate) unsafe fn write_stats(dst: *mut cadmm_stats, size: usize, src: &cadmm
         islands,
         failed_island,
         rows,
-        linear_iterations
+        linear_iterations,
+        gauss_seidel_sweeps
     );
 }
 

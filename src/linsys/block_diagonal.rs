@@ -164,6 +164,11 @@ impl BlockDiagonal {
         &self.index[self.start[b]..self.start[b + 1]]
     }
 
+    /// The block that holds unknown `i`.
+    pub fn block_containing(&self, i: usize) -> usize {
+        self.block_of[i]
+    }
+
     /// How many unknowns the blocks before `b` hold.
     pub fn unknowns_before(&self, b: usize) -> usize {
         self.start[b]
@@ -194,6 +199,19 @@ impl BlockDiagonal {
     /// The blocks' matrices, column-major, block after block (for a caller that fills them).
     pub fn matrix_mut(&mut self) -> &mut [f64] {
         &mut self.matrix
+    }
+
+    /// Takes `m`'s entries in the blocks as they are (entries outside the blocks are left
+    /// out), for [`BlockDiagonal::is_symmetric`] to judge.
+    pub fn take_values(&mut self, m: &CscMatrix) {
+        self.matrix.fill(0.0);
+        for j in 0..m.ncols() {
+            for (i, v) in m.col(j) {
+                if let Some(at) = self.slot(i, j) {
+                    self.matrix[at] = v;
+                }
+            }
+        }
     }
 
     /// Takes the symmetric part `(M + M^T) / 2` of `m`'s blocks (both triangles add half of
@@ -297,6 +315,11 @@ impl BlockDiagonal {
                 rhs[i] = *g;
             }
         }
+    }
+
+    /// Block `b`'s inverse from [`BlockDiagonal::invert`], column-major.
+    pub fn inverse_block(&self, b: usize) -> &[f64] {
+        &self.factor[self.offset[b]..self.offset[b + 1]]
     }
 
     /// `y = A x` with the matrices taken (`x` and `y` over all unknowns).

@@ -49,6 +49,9 @@ pub struct Stats {
     /// Conjugate-gradient iterations of the matrix-free v-updates (0 when the systems are
     /// factorized; see [`crate::LinearSolver`]).
     pub linear_iterations: usize,
+    /// Gauss-Seidel sweeps of a solver built with a time limit (docs/algorithms.md §16;
+    /// 0 otherwise), not counted in `iterations`.
+    pub gauss_seidel_sweeps: usize,
 }
 
 impl Default for Stats {
@@ -73,6 +76,7 @@ impl Default for Stats {
             failed_island: None,
             solve_seconds: 0.0,
             linear_iterations: 0,
+            gauss_seidel_sweeps: 0,
         }
     }
 }

@@ -1,0 +1,148 @@
+//! The first phase of a solver built with a time limit (an engine's per-step budget):
+//! Gauss-Seidel sweeps over the whole problem (`gauss_seidel.rs`), which need no
+//! factorization of the coupled system, so that a solver built every step costs its
+//! sweeps and little else. It keeps its own copy of the problem: the islands and their
+//! factorizations are built only when the sweeps stall with time left
+//! (docs/algorithms.md §16).
+
+use crate::gauss_seidel::{GaussSeidel, SweepLimits, SweepOutcome};
+use crate::measure::MeasureWork;
+use crate::problem::{check_len, GlobalProblem, KeptValues, NewValues, Problem, ProblemRef};
+use crate::settings::Settings;
+use crate::types::{Error, Solution};
+use std::time::Instant;
+
+/// The problem, its sweeps and the warm start they begin from.
+pub(crate) struct BudgetedStart {
+    problem: GlobalProblem,
+    sweeps: GaussSeidel,
+    /// Impulses and velocities of the last warm start, until the next solve takes them.
+    warm: Option<(Vec<f64>, Option<Vec<f64>>)>,
+    /// The warm start the last run began from, for the coupled solve it may hand over to.
+    used_warm: Option<(Vec<f64>, Option<Vec<f64>>)>,
+    measure: MeasureWork,
+    /// The values an update replaces, until it has succeeded.
+    kept: KeptValues,
+}
+
+impl BudgetedStart {
+    /// The sweeps for `problem` when `settings` set a time limit and the problem is
+    /// global, without joints, with M made of small symmetric blocks; `None` otherwise.
+    pub(crate) fn sweeps_for(problem: &Problem, settings: &Settings) -> Option<GaussSeidel> {
+        match problem {
+            Problem::Global(g) if settings.time_limit.is_finite() => GaussSeidel::new(g),
+            _ => None,
+        }
+    }
+
+    /// The first phase of `problem` with its `sweeps` ([`BudgetedStart::sweeps_for`]).
+    /// M's blocks are factorized here, so a matrix that is not positive definite is
+    /// reported now, as the coupled solver would.
+    pub(crate) fn new(problem: Problem, mut sweeps: GaussSeidel) -> Result<Self, Error> {
+        let Problem::Global(problem) = problem else {
+            unreachable!("sweeps_for takes global problems only")
+        };
+        sweeps.take_values(&problem)?;
+        Ok(Self {
+            measure: MeasureWork::global(&problem),
+            problem,
+            sweeps,
+            warm: None,
+            used_warm: None,
+            kept: KeptValues::default(),
+        })
+    }
+
+    /// The problem as it stands (for building the islands' solvers from it).
+    pub(crate) fn problem(&self) -> Problem {
+        Problem::Global(self.problem.clone())
+    }
+
+    /// Takes a successor problem (same sizes and patterns); refused, nothing changes.
+    /// Returns false when the sweeps no longer fit it (M lost its symmetry).
+    pub(crate) fn update(&mut self, problem: Problem) -> Result<bool, Error> {
+        let Problem::Global(next) = problem else {
+            return Err(Error::Unsupported(
+                "update: the new problem is local, the solver was built for a global one".into(),
+            ));
+        };
+        self.problem.check_successor(&next)?;
+        let before = std::mem::replace(&mut self.problem, next);
+        let taken = self.take_values();
+        if taken.is_err() {
+            self.problem = before;
+            let _ = self.sweeps.take_values(&self.problem);
+        }
+        taken
+    }
+
+    /// Takes new values (same patterns); refused, nothing changes. Returns false when the
+    /// sweeps no longer fit the problem (M lost its symmetry).
+    pub(crate) fn update_values(&mut self, values: &NewValues) -> Result<bool, Error> {
+        self.kept.keep(ProblemRef::Global(&self.problem), values);
+        self.problem.set_values(values)?;
+        let taken = self.take_values();
+        if taken.is_err() {
+            // Back to the values before, which factorized.
+            let _ = self.problem.set_values(&self.kept.values());
+            let _ = self.sweeps.take_values(&self.problem);
+        }
+        taken
+    }
+
+    /// Takes the problem's current values into the sweeps; false when M lost its symmetry.
+    fn take_values(&mut self) -> Result<bool, Error> {
+        self.warm = None;
+        if !self.problem.m.is_symmetric() {
+            return Ok(false);
+        }
+        self.sweeps.take_values(&self.problem)?;
+        Ok(true)
+    }
+
+    /// Starts the next run of sweeps from the impulses `r` (the sweeps' velocities follow
+    /// from them, `v = M^-1 (f + H r)`; `v` is kept for the coupled solve).
+    pub(crate) fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
+        check_len("r", r, self.problem.w.len())?;
+        if let Some(v) = v {
+            check_len("v", v, self.problem.n())?;
+        }
+        self.warm = Some((r.to_vec(), v.map(<[f64]>::to_vec)));
+        Ok(())
+    }
+
+    /// Sweeps to `tolerance` within `deadline` and `max_sweeps`, from the warm start when
+    /// one was given since the last run.
+    pub(crate) fn run(
+        &mut self,
+        tolerance: f64,
+        deadline: Option<Instant>,
+        max_sweeps: usize,
+    ) -> SweepOutcome {
+        self.used_warm = self.warm.take();
+        let limits = SweepLimits {
+            tolerance,
+            deadline,
+            max_sweeps,
+        };
+        let r0 = self.used_warm.as_ref().map(|(r, _)| r.as_slice());
+        self.sweeps
+            .run(&self.problem, r0, limits, &mut self.measure)
+    }
+
+    /// The warm start the last run began from (impulses, and velocities when given).
+    pub(crate) fn used_warm(&self) -> Option<(&[f64], Option<&[f64]>)> {
+        let (r, v) = self.used_warm.as_ref()?;
+        Some((r, v.as_deref()))
+    }
+
+    /// Writes the best iterate of the last run into `out`.
+    pub(crate) fn write_solution(&self, out: &mut Solution) {
+        let (r, v) = self.sweeps.best();
+        out.zeroed(r.len(), v.len(), 0);
+        out.r.copy_from_slice(r);
+        out.v.copy_from_slice(v);
+        out.u.copy_from_slice(&self.problem.w);
+        self.problem.h.mul_t_vec(1.0, v, 1.0, &mut out.u);
+    }
+}

@@ -10,6 +10,8 @@ use crate::scene::Scene;
 use crate::settings::{Resolved, Settings};
 use crate::tuning::ROUND_OFF_MARGIN;
 use crate::types::{Error, Solution, Stats, Status, TracePoint};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Solves one frictional contact problem, and its successors with the same pattern.
@@ -246,6 +248,19 @@ impl Solver {
     /// its own measure).
     pub fn island_stats(&self) -> &[Stats] {
         &self.island_stats
+    }
+
+    /// Makes `flag` the solver's interrupt, for a caller that must be able to stop a solve
+    /// under way (a user's Ctrl-C): once `flag` is set, from any thread, each ADMM run
+    /// ends after its current iteration as at the time limit, and the solve returns
+    /// `Status::TimeLimit` with the best iterate measured. A Newton phase under way finishes
+    /// its steps first. The solver stays usable; clear the flag before the next solve. A
+    /// flag that is never set does not change the solve.
+    pub fn set_interrupt(&mut self, flag: Arc<AtomicBool>) {
+        match &mut self.layout {
+            Layout::Whole(s) => s.set_interrupt(flag),
+            Layout::Split(split) => split.set_interrupt(&flag),
+        }
     }
 
     /// Per-iteration trace of the last solve (empty unless `Settings::trace`); with several

@@ -8,7 +8,13 @@ use crate::settings::Settings;
 use numpy::PyArray1;
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
-use std::sync::{Mutex, MutexGuard};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread;
+use std::time::Duration;
+
+/// How often a solve's calling thread runs Python's signal handlers (Ctrl-C).
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
 
 /// Solves one frictional contact problem, and its successors with the same pattern.
 #[pyclass(module = "cadmm")]
@@ -17,6 +23,9 @@ pub struct Solver {
     solver: Mutex<cadmm::Solver>,
     /// The problem it was built for, whose patterns new matrix values must keep.
     problem: Py<PyAny>,
+    /// Set when a signal handler raises during a solve: the solve stops at its next
+    /// iteration.
+    interrupt: Arc<AtomicBool>,
 }
 
 impl Solver {
@@ -41,22 +50,31 @@ impl Solver {
     ) -> PyResult<Self> {
         let built = problem_of(problem)?;
         let settings = settings.map(|s| s.inner.clone()).unwrap_or_default();
-        let solver = py
+        let mut solver = py
             .detach(|| cadmm::Solver::new(built, settings))
             .or_raise(py)?;
+        let interrupt = Arc::new(AtomicBool::new(false));
+        solver.set_interrupt(interrupt.clone());
         Ok(Self {
             solver: Mutex::new(solver),
             problem: problem.clone().unbind(),
+            interrupt,
         })
     }
 
     /// Runs the solve, with the GIL released, and returns its `cadmm.Status`. Starts from
-    /// zero unless `warm_start` was called since the last solve or update.
+    /// zero unless `warm_start` was called since the last solve or update. Ctrl-C (any
+    /// signal handler that raises) stops it at its next iteration and raises, leaving the
+    /// best iterate measured as the solution.
     fn solve(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         let mut guard = self.lock()?;
         let solver: &mut cadmm::Solver = &mut guard;
-        let status = py.detach(|| solver.solve()).or_raise(py)?;
-        status_of(py, status)
+        self.interrupt.store(false, Ordering::Relaxed);
+        let (status, raised) = py.detach(|| solve_watching_signals(solver, &self.interrupt));
+        if let Some(e) = raised {
+            return Err(e);
+        }
+        status_of(py, status.or_raise(py)?)
     }
 
     /// The answer of the last solve (its best iterate when it did not solve; zeros before
@@ -165,6 +183,37 @@ impl Solver {
         let next = settings.inner.clone();
         self.lock()?.update_settings(next).or_raise(py)
     }
+}
+
+/// Solves on a worker thread while this one, every [`SIGNAL_POLL`], runs Python's signal
+/// handlers (which only the main thread can do); the exception of a handler that raises
+/// sets `interrupt` and is handed back with the stopped solve's result.
+fn solve_watching_signals(
+    solver: &mut cadmm::Solver,
+    interrupt: &AtomicBool,
+) -> (Result<cadmm::Status, cadmm::Error>, Option<PyErr>) {
+    thread::scope(|scope| {
+        let caller = thread::current();
+        let worker = scope.spawn(move || {
+            let status = solver.solve();
+            caller.unpark();
+            status
+        });
+        let mut raised = None;
+        while !worker.is_finished() {
+            thread::park_timeout(SIGNAL_POLL);
+            if raised.is_none() && !worker.is_finished() {
+                raised = Python::attach(|py| py.check_signals()).err();
+                if raised.is_some() {
+                    interrupt.store(true, Ordering::Relaxed);
+                }
+            }
+        }
+        let status = worker
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        (status, raised)
+    })
 }
 
 /// The `cadmm.Status` of a solve's outcome.

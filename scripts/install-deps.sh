@@ -4,12 +4,13 @@
 # reference-solve tests), Bullet and ODE (the engine integrations), valgrind (memory checks of the C tests), Siconos numerics (the
 # peer the benchmarks compare against), a font for the benchmark plots, matplotlib for the
 # integrations' trace plots (integrations/*/plot_trace.py), the Python
-# packages of the error checker, and mdBook for the docs/ book.
+# packages of the error checker and of the Python package's tests (with venv, where they
+# run), and mdBook for the docs/ book.
 set -euo pipefail
 
 debs=(cmake pkg-config libhdf5-dev libsuitesparse-dev libeigen3-dev valgrind fonts-dejavu-core
       libbullet-dev libode-dev python3-matplotlib
-      libsiconos-numerics-dev python3-siconos python3-h5py python3-numpy python3-scipy
+      libsiconos-numerics-dev python3-siconos python3-h5py python3-numpy python3-scipy python3-venv
       openmpi-bin libopenmpi-dev libclang-dev)
 missing=()
 for d in "${debs[@]}"; do

@@ -10,6 +10,7 @@ use crate::measure::MeasureWork;
 use crate::problem::{check_len, GlobalProblem, KeptValues, NewValues, Problem, ProblemRef};
 use crate::settings::Settings;
 use crate::types::{Error, Solution};
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 /// The problem, its sweeps and the warm start they begin from.
@@ -111,19 +112,21 @@ impl BudgetedStart {
         Ok(())
     }
 
-    /// Sweeps to `tolerance` within `deadline` and `max_sweeps`, from the warm start when
-    /// one was given since the last run.
+    /// Sweeps to `tolerance` within `deadline` and `max_sweeps`, or until `interrupt` is
+    /// set, from the warm start when one was given since the last run.
     pub(crate) fn run(
         &mut self,
         tolerance: f64,
         deadline: Option<Instant>,
         max_sweeps: usize,
+        interrupt: Option<&AtomicBool>,
     ) -> SweepOutcome {
         self.used_warm = self.warm.take();
         let limits = SweepLimits {
             tolerance,
             deadline,
             max_sweeps,
+            interrupt,
         };
         let r0 = self.used_warm.as_ref().map(|(r, _)| r.as_slice());
         self.sweeps

@@ -11,6 +11,8 @@ use crate::tuning::{DENSE_MAX, HANDOVER_RETRY_FACTOR, NEWTON_FIRST_STEPS, NEWTON
 use crate::types::Solution;
 use crate::types::{Error, Status};
 use crate::types::{Phase, Stats, TracePoint};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Whether a small problem's solves start with a Newton phase.
@@ -58,6 +60,8 @@ pub(crate) struct CoupledSolver {
     dense_newton: bool,
     /// The values an update replaces, until it has succeeded.
     kept: KeptValues,
+    /// Once set, ADMM runs end as at the time limit (see `Solver::set_interrupt`).
+    interrupt: Arc<AtomicBool>,
 }
 
 impl CoupledSolver {
@@ -117,6 +121,7 @@ impl CoupledSolver {
             newton_first,
             dense_newton,
             kept: KeptValues::default(),
+            interrupt: Arc::default(),
         })
     }
 
@@ -126,6 +131,11 @@ impl CoupledSolver {
         self.settings.tolerance = tolerance;
         self.settings.time_limit = time_limit;
         self.settings.max_iterations = max_iterations;
+    }
+
+    /// Makes `flag` the interrupt its ADMM runs read (see `Solver::set_interrupt`).
+    pub(crate) fn set_interrupt(&mut self, flag: Arc<AtomicBool>) {
+        self.interrupt = flag;
     }
 
     /// Takes the settings a solve reads when it starts (see [`Settings::check_update`]).
@@ -338,7 +348,8 @@ impl CoupledSolver {
     /// Newton.
     fn admm_phase(&mut self, run: &mut Run) -> Result<(Option<Status>, bool), Error> {
         run.set.max_iterations = self.iterations_left(&run.stats);
-        let out = admm::run(self.form.as_mut(), &mut self.state, &run.set, run.t0)?;
+        let form = self.form.as_mut();
+        let out = admm::run_until(form, &mut self.state, &run.set, run.t0, &self.interrupt)?;
         out.add_to(&mut run.stats);
         let offset = run.stats.iterations - out.iterations;
         self.trace.extend(out.trace.into_iter().map(|mut t| {

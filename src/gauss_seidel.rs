@@ -16,6 +16,7 @@ use crate::tuning::{
     GAUSS_SEIDEL_PATIENCE,
 };
 use crate::types::{Error, Status};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// One contact's Delassus block `W_cc = H_c^T M^-1 H_c` (row-major), its inverse when it
@@ -181,8 +182,10 @@ impl GaussSeidel {
             let left = limits.deadline.map_or(f64::INFINITY, seconds_until);
             // Fewer sweeps than the first measure's answer worse than an engine's own solver
             // does: the budget yields to them.
-            let out_of_time =
-                left < sweep_time + measure_time && outcome.sweeps >= GAUSS_SEIDEL_FIRST_MEASURE;
+            let interrupted = limits.interrupt.is_some_and(|i| i.load(Ordering::Relaxed));
+            let out_of_time = interrupted
+                || (left < sweep_time + measure_time
+                    && outcome.sweeps >= GAUSS_SEIDEL_FIRST_MEASURE);
             if out_of_time || outcome.sweeps >= limits.max_sweeps {
                 if !measured {
                     self.measure(p, work);
@@ -324,12 +327,13 @@ fn seconds_until(deadline: Instant) -> f64 {
         .as_secs_f64()
 }
 
-/// What bounds a run of sweeps.
+/// What bounds a run of sweeps; a set `interrupt` ends it as the deadline does.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct SweepLimits {
+pub(crate) struct SweepLimits<'a> {
     pub tolerance: f64,
     pub deadline: Option<Instant>,
     pub max_sweeps: usize,
+    pub interrupt: Option<&'a AtomicBool>,
 }
 
 impl ContactBlock {

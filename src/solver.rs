@@ -13,6 +13,8 @@ use crate::scene::Scene;
 use crate::settings::{Resolved, Settings};
 use crate::tuning::ROUND_OFF_MARGIN;
 use crate::types::{Error, Solution, Stats, Status, TracePoint};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Solves one frictional contact problem, and its successors with the same pattern.
@@ -25,6 +27,8 @@ pub struct Solver {
     layout: Option<Layout>,
     /// The Gauss-Seidel phase of a solver built with a time limit, when the problem suits it.
     budgeted: Option<Box<BudgetedStart>>,
+    /// The flag of [`Solver::set_interrupt`], handed to the islands when they are built.
+    interrupt: Option<Arc<AtomicBool>>,
     stats: Stats,
     island_stats: Vec<Stats>,
     /// The solution the last solve handed back (zeros before the first solve), kept so
@@ -63,6 +67,13 @@ impl Layout {
                 (Layout::Whole(Box::new(solver)), islands)
             }
         })
+    }
+
+    fn set_interrupt(&mut self, flag: &Arc<AtomicBool>) {
+        match self {
+            Layout::Whole(s) => s.set_interrupt(flag.clone()),
+            Layout::Split(split) => split.set_interrupt(flag),
+        }
     }
 
     fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
@@ -142,6 +153,7 @@ impl Solver {
             inner: settings,
             layout,
             budgeted,
+            interrupt: None,
             stats: Stats::default(),
             island_stats: Vec::new(),
             solution,
@@ -199,10 +211,20 @@ impl Solver {
         }
         if self.layout.is_none() {
             let problem = self.budgeted.as_ref().expect("budgeted").problem();
-            self.layout = Some(Layout::new(problem, &self.inner)?.0);
+            self.layout = Some(self.build(problem)?.0);
         }
         self.budgeted = None;
         Ok(())
+    }
+
+    /// Builds the islands of `problem` (a budgeted start's, when the sweeps need them),
+    /// with the interrupt if one was set.
+    fn build(&self, problem: Problem) -> Result<(Layout, usize), Error> {
+        let (mut layout, islands) = Layout::new(problem, &self.inner)?;
+        if let Some(flag) = &self.interrupt {
+            layout.set_interrupt(flag);
+        }
+        Ok((layout, islands))
     }
 
     /// Takes new values for the problem on the same sizes and sparsity patterns (the next
@@ -256,7 +278,13 @@ impl Solver {
         };
         let limit = std::time::Duration::try_from_secs_f64(self.inner.time_limit).ok();
         let deadline = limit.and_then(|l| t0.checked_add(l));
-        let swept = budgeted.run(self.inner.tolerance, deadline, self.inner.max_iterations);
+        let interrupt = self.interrupt.as_deref();
+        let swept = budgeted.run(
+            self.inner.tolerance,
+            deadline,
+            self.inner.max_iterations,
+            interrupt,
+        );
         budgeted.write_solution(&mut self.solution);
         if let Some(status) = swept.status {
             self.collect_swept(status, swept.sweeps, swept.error, t0);
@@ -272,7 +300,7 @@ impl Solver {
         if self.layout.is_none() {
             let budgeted = self.budgeted.as_ref().expect("budgeted");
             let built = Instant::now();
-            let (mut layout, islands) = Layout::new(budgeted.problem(), &self.inner)?;
+            let (mut layout, islands) = self.build(budgeted.problem())?;
             if let Some((r, v)) = budgeted.used_warm() {
                 layout.warm_start(r, v)?;
             }
@@ -392,6 +420,19 @@ impl Solver {
     /// its own measure).
     pub fn island_stats(&self) -> &[Stats] {
         &self.island_stats
+    }
+
+    /// Makes `flag` the solver's interrupt, for a caller that must be able to stop a solve
+    /// under way (a user's Ctrl-C): once `flag` is set, from any thread, each ADMM run
+    /// ends after its current iteration as at the time limit, and the solve returns
+    /// `Status::TimeLimit` with the best iterate measured. A Newton phase under way finishes
+    /// its steps first. The solver stays usable; clear the flag before the next solve. A
+    /// flag that is never set does not change the solve.
+    pub fn set_interrupt(&mut self, flag: Arc<AtomicBool>) {
+        if let Some(layout) = &mut self.layout {
+            layout.set_interrupt(&flag);
+        }
+        self.interrupt = Some(flag);
     }
 
     /// Per-iteration trace of the last solve (empty unless `Settings::trace`); with several

@@ -11,6 +11,7 @@ use super::{EngineState, SUpdate, Splitting, Variant};
 use crate::csc::dot;
 use crate::types::{Error, Stats, Status};
 use crate::types::{Phase, TracePoint};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// Settings the loop needs.
@@ -101,6 +102,18 @@ pub fn run(
     set: &EngineSettings,
     start: Instant,
 ) -> Result<EngineOutcome, Error> {
+    run_until(sp, state, set, start, &AtomicBool::new(false))
+}
+
+/// [`run`], which also ends, as at its time limit, once `interrupt` is set (from any
+/// thread): it is read where the clock is, after each iteration.
+pub(crate) fn run_until(
+    sp: &mut dyn Splitting,
+    state: &mut EngineState,
+    set: &EngineSettings,
+    start: Instant,
+    interrupt: &AtomicBool,
+) -> Result<EngineOutcome, Error> {
     let (rho_min, rho_max) = (state.rho / set.rho_range, state.rho * set.rho_range);
     sp.set_deadline(
         Duration::try_from_secs_f64(set.time_limit)
@@ -120,7 +133,7 @@ pub fn run(
     let mut accel = Accelerator::new(anderson, interval, relaxation, &state.y, &state.zeta);
     let mut rule = RhoAdapter::new(set.variant.rule, l);
     let mut shift = ShiftSchedule::new(set);
-    let mut stop = StopTest::new(set, start, sp);
+    let mut stop = StopTest::new(set, start, interrupt, sp);
     let mut best = BestIterate::new(state, sp);
     let mut rho = state.rho;
     // Whether the form's own x iterate (the global form's velocity) came from a rejected
@@ -331,19 +344,26 @@ struct Residuals {
 struct StopTest<'a> {
     set: &'a EngineSettings,
     start: Instant,
+    interrupt: &'a AtomicBool,
     monitor: Option<HandoverMonitor>,
     /// The constraint space's dimension (of every process's part together).
     dim: f64,
 }
 
 impl<'a> StopTest<'a> {
-    fn new(set: &'a EngineSettings, start: Instant, sp: &dyn Splitting) -> Self {
+    fn new(
+        set: &'a EngineSettings,
+        start: Instant,
+        interrupt: &'a AtomicBool,
+        sp: &dyn Splitting,
+    ) -> Self {
         let monitor = set.handover.map(|h| HandoverMonitor::new(h, set.tolerance));
         let mut dim = [sp.dim() as f64];
         sp.sum_across(&mut dim);
         Self {
             set,
             start,
+            interrupt,
             monitor,
             dim: dim[0],
         }
@@ -390,7 +410,7 @@ impl<'a> StopTest<'a> {
         {
             out.handed_over = true;
             out.newton_budget = left;
-        } else if out_of_time(sp, self.start, set.time_limit) {
+        } else if out_of_time(sp, self.start, set.time_limit, self.interrupt) {
             out.status = Some(Status::TimeLimit);
         }
         out.status.is_some() || out.handed_over
@@ -504,10 +524,11 @@ fn norm_c(sp: &dyn Splitting) -> f64 {
     c_sq[0].sqrt()
 }
 
-/// Whether the run is past its time limit (on any of the processes sharing the problem:
-/// they all stop together).
-fn out_of_time(sp: &dyn Splitting, start: Instant, limit: f64) -> bool {
-    let mut late = [f64::from(u8::from(start.elapsed().as_secs_f64() > limit))];
+/// Whether the run is past its time limit, or interrupted (on any of the processes sharing
+/// the problem: they all stop together).
+fn out_of_time(sp: &dyn Splitting, start: Instant, limit: f64, interrupt: &AtomicBool) -> bool {
+    let late = start.elapsed().as_secs_f64() > limit || interrupt.load(Ordering::Relaxed);
+    let mut late = [f64::from(u8::from(late))];
     sp.sum_across(&mut late);
     late[0] > 0.0
 }

@@ -24,6 +24,7 @@ mod variant;
 /// Euclidean norm, for plug-ins computing their residuals and scales.
 pub use crate::csc::norm2;
 pub use anderson::Anderson;
+pub(crate) use engine::run_until;
 pub use engine::{run, EngineOutcome, EngineSettings};
 pub use handover::Handover;
 pub use rho_rule::RhoRule;

@@ -18,7 +18,8 @@ use crate::scene::strategy::{PartSolver, SolveContext};
 use crate::settings::{NewtonUse, Settings};
 use crate::tuning::{FREE_CONTACT_SHARE, ISLAND_ROUNDS};
 use crate::types::{Error, Solution, Status};
-use std::sync::Mutex;
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// A problem split into islands: the structure found once from the sparsity pattern (the
@@ -139,6 +140,13 @@ impl Scene {
     pub(crate) fn update_settings(&mut self, settings: &Settings) {
         for p in &mut self.parts {
             p.update_settings(settings);
+        }
+    }
+
+    /// Makes `flag` the interrupt of every part's ADMM runs (see `Solver::set_interrupt`).
+    pub(crate) fn set_interrupt(&mut self, flag: &Arc<AtomicBool>) {
+        for p in &mut self.parts {
+            p.set_interrupt(flag.clone());
         }
     }
 

@@ -13,6 +13,8 @@ use crate::scene::small_island::{Site, SmallIsland, SmallWork};
 use crate::settings::Settings;
 use crate::tuning::NEWTON_FIRST_STEPS;
 use crate::types::{Error, Solution, Stats, Status, TracePoint};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// What every part's solve reads: the whole problem (a small island that falls back builds
@@ -62,6 +64,8 @@ pub(crate) struct PartSolver {
     /// Statistics and trace of the current solve, summed over its rounds.
     pub(crate) stats: Stats,
     pub(crate) trace: Vec<TracePoint>,
+    /// Handed to the part's coupled solver, now or when it is built.
+    interrupt: Arc<AtomicBool>,
 }
 
 impl PartSolver {
@@ -114,6 +118,7 @@ impl PartSolver {
             part,
             tolerance: settings.tolerance,
             outcome: Ok(Status::Unsolved),
+            interrupt: Arc::default(),
         })
     }
 
@@ -143,6 +148,14 @@ impl PartSolver {
         if let Some(c) = self.coupled() {
             c.set_measure_floors(floors);
         }
+    }
+
+    /// Makes `flag` the interrupt of the part's ADMM runs (see `Solver::set_interrupt`).
+    pub(crate) fn set_interrupt(&mut self, flag: Arc<AtomicBool>) {
+        if let Some(c) = self.coupled() {
+            c.set_interrupt(flag.clone());
+        }
+        self.interrupt = flag;
     }
 
     /// Takes the settings a solve reads when it starts.
@@ -312,6 +325,7 @@ impl PartSolver {
             let problem = self.part.sub_problem(at.whole, at.row_of)?;
             let mut coupled = CoupledSolver::new(problem, at.settings.clone(), NewtonFirst::Never)?;
             coupled.set_measure_floors(self.floors);
+            coupled.set_interrupt(self.interrupt.clone());
             if warm {
                 coupled.warm_start(&self.r, None)?;
             }

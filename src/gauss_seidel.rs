@@ -178,6 +178,7 @@ impl GaussSeidel {
         };
         let (mut sweep_time, mut measure_time) = (0.0, t0.elapsed().as_secs_f64());
         let (mut checkpoint, mut measured) = (GAUSS_SEIDEL_FIRST_MEASURE, true);
+        outcome.status = measured_status(previous, limits);
         while outcome.status.is_none() {
             let left = limits.deadline.map_or(f64::INFINITY, seconds_until);
             // Fewer sweeps than the first measure's answer worse than an engine's own solver
@@ -219,11 +220,7 @@ impl GaussSeidel {
                 }
             }
             outcome.error = self.best_error;
-            if outcome.error <= limits.tolerance {
-                outcome.status = Some(Status::Solved);
-            } else if !outcome.error.is_finite() {
-                outcome.status = Some(Status::NumericalError);
-            }
+            outcome.status = outcome.status.or(measured_status(outcome.error, limits));
         }
         outcome
     }
@@ -318,6 +315,16 @@ fn hand_over(at: Progress, limits: SweepLimits) -> bool {
     };
     let to_go = at.seconds * (needed.exp2() - 1.0);
     to_go > (GAUSS_SEIDEL_PATIENCE * at.seconds).min(left)
+}
+
+/// The status an error ends the sweeps with: solved at the tolerance, a numerical error
+/// when not finite, none otherwise.
+fn measured_status(error: f64, limits: SweepLimits) -> Option<Status> {
+    match error {
+        e if e <= limits.tolerance => Some(Status::Solved),
+        e if !e.is_finite() => Some(Status::NumericalError),
+        _ => None,
+    }
 }
 
 /// Seconds from now until `deadline` (0 once past).

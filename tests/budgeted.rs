@@ -1,0 +1,185 @@
+//! A solver built with a time limit starts with Gauss-Seidel sweeps (docs/algorithms.md
+//! §16): every answer it hands back is measured by the independent measure of `common` at
+//! the error it reports; the sweeps meet a loose tolerance alone, hand over to a tight one
+//! and still solve it; a budget too short for them hands back their best iterate; updates,
+//! refused updates and warm starts reach them; problems they do not suit solve as before.
+#![cfg(feature = "fclib")]
+
+mod common;
+
+use cadmm::{fclib, CscMatrix, GlobalProblem, NewValues, Problem, Settings, Solver, Status};
+
+fn box_stack() -> GlobalProblem {
+    let rel = "global/Box_Stacks-i0122-82-5.hdf5";
+    match fclib::read(common::data(rel)).unwrap_or_else(|e| panic!("{rel}: {e}")) {
+        Problem::Global(g) => g,
+        Problem::Local(_) => panic!("{rel} is global"),
+    }
+}
+
+fn budget(tolerance: f64, time_limit: f64) -> Settings {
+    Settings {
+        tolerance,
+        time_limit,
+        ..Settings::default()
+    }
+}
+
+/// Solves and checks that the reported error is the independent measure's.
+fn solve(solver: &mut Solver, p: &GlobalProblem) -> (Status, f64) {
+    let status = solver.solve().unwrap();
+    let s = solver.solution();
+    let independent = common::global_error(p, &s.r, &s.v, &s.lambda);
+    let reported = solver.stats().error;
+    assert!(
+        (independent - reported).abs() <= 1e-9 + 1e-6 * reported,
+        "reported {reported:e}, independent {independent:e}"
+    );
+    (status, independent)
+}
+
+#[test]
+fn sweeps_meet_a_loose_tolerance_alone() {
+    let p = box_stack();
+    let mut solver = Solver::new(Problem::Global(p.clone()), budget(1e-3, 10.0)).unwrap();
+    let (status, error) = solve(&mut solver, &p);
+    assert_eq!(status, Status::Solved);
+    assert!(error <= 1e-3);
+    let stats = solver.stats();
+    assert!(stats.gauss_seidel_sweeps > 0);
+    assert_eq!(
+        stats.iterations, 0,
+        "no ADMM iteration: the sweeps solved it"
+    );
+}
+
+#[test]
+fn a_tight_tolerance_hands_over_and_is_met() {
+    let p = box_stack();
+    let mut solver = Solver::new(Problem::Global(p.clone()), budget(1e-8, 60.0)).unwrap();
+    let (status, error) = solve(&mut solver, &p);
+    assert_eq!(status, Status::Solved);
+    assert!(error <= 1e-8);
+    let stats = solver.stats();
+    assert!(stats.gauss_seidel_sweeps >= 8, "{stats:?}");
+    assert!(stats.iterations > 0, "ADMM and Newton finished: {stats:?}");
+}
+
+#[test]
+fn a_short_budget_hands_back_the_best_iterate_it_measured() {
+    let p = box_stack();
+    let mut solver = Solver::new(Problem::Global(p.clone()), budget(1e-12, 1e-9)).unwrap();
+    let (status, error) = solve(&mut solver, &p);
+    assert_eq!(status, Status::TimeLimit);
+    // The sweeps run at least four times, whatever the budget: far better than no impulse.
+    assert!(solver.stats().gauss_seidel_sweeps >= 4);
+    assert!(error < 0.5, "error {error:e}");
+}
+
+#[test]
+fn warm_starts_and_new_values_reach_the_sweeps() {
+    let p = box_stack();
+    let mut solver = Solver::new(Problem::Global(p.clone()), budget(1e-4, 10.0)).unwrap();
+    assert_eq!(solve(&mut solver, &p).0, Status::Solved);
+    // From its own answer: measured, met, no sweep.
+    let s = solver.solution().clone();
+    solver.warm_start(&s.r, Some(&s.v)).unwrap();
+    assert_eq!(solve(&mut solver, &p).0, Status::Solved);
+    assert_eq!(
+        solver.stats().gauss_seidel_sweeps,
+        0,
+        "{:?}",
+        solver.stats()
+    );
+    // Twice the forces: the answer is that of the new problem.
+    let f: Vec<f64> = p.f.iter().map(|x| 2.0 * x).collect();
+    let new = NewValues {
+        f: Some(&f),
+        ..NewValues::default()
+    };
+    solver.update_values(&new).unwrap();
+    let mut doubled = p.clone();
+    doubled.f = f.clone();
+    let (status, error) = solve(&mut solver, &doubled);
+    assert_eq!(status, Status::Solved);
+    assert!(error <= 1e-4);
+}
+
+#[test]
+fn a_refused_update_changes_nothing() {
+    let p = box_stack();
+    let mut solver = Solver::new(Problem::Global(p.clone()), budget(1e-4, 10.0)).unwrap();
+    let (_, before) = solve(&mut solver, &p);
+    // M's first diagonal entry negated: not positive definite.
+    let mut m = p.m.values().to_vec();
+    let first = p.m.colptr()[0]..p.m.colptr()[1];
+    let at = first.clone().find(|&k| p.m.rowind()[k] == 0).unwrap();
+    m[at] = -m[at];
+    let f: Vec<f64> = p.f.iter().map(|x| 3.0 * x).collect();
+    let bad = NewValues {
+        m: Some(&m),
+        f: Some(&f),
+        ..NewValues::default()
+    };
+    assert!(solver.update_values(&bad).is_err());
+    let (_, after) = solve(&mut solver, &p);
+    assert_eq!(before, after, "the same problem, the same answer");
+}
+
+#[test]
+fn an_m_that_loses_its_symmetry_goes_to_the_coupled_solver() {
+    // The stack's M (diagonal) with a stored zero pair coupling velocities 0 and 1, which
+    // an update then makes asymmetric.
+    let p = box_stack();
+    let mut triplets: Vec<(usize, usize, f64)> = (0..p.n())
+        .flat_map(|j| p.m.col(j).map(move |(i, x)| (i, j, x)))
+        .collect();
+    triplets.extend([(0, 1, 0.0), (1, 0, 0.0)]);
+    let m = CscMatrix::from_triplets("M", p.n(), p.n(), &triplets).unwrap();
+    let coupled = GlobalProblem::new(m, p.h.clone(), p.f.clone(), p.w.clone(), p.mu.clone());
+    let coupled = coupled.unwrap();
+    let mut solver = Solver::new(Problem::Global(coupled.clone()), budget(1e-6, 10.0)).unwrap();
+    assert_eq!(solve(&mut solver, &coupled).0, Status::Solved);
+    // Entry (0, 1) in storage order (a matrix built from triplets takes its values so).
+    let m = &coupled.m;
+    let at = (m.colptr()[1]..m.colptr()[2])
+        .find(|&k| m.rowind()[k] == 0)
+        .unwrap();
+    let mut values = m.values().to_vec();
+    values[at] = 1e-3 * p.m.diagonal_entry(0);
+    let new = NewValues {
+        m: Some(&values),
+        ..NewValues::default()
+    };
+    solver.update_values(&new).unwrap();
+    let mut asymmetric = coupled.clone();
+    asymmetric.m = CscMatrix::new(
+        "M",
+        p.n(),
+        p.n(),
+        m.colptr().to_vec(),
+        m.rowind().to_vec(),
+        values,
+    )
+    .unwrap();
+    let (status, error) = solve(&mut solver, &asymmetric);
+    assert_eq!(status, Status::Solved);
+    assert!(error <= 1e-6);
+    assert_eq!(solver.stats().gauss_seidel_sweeps, 0);
+}
+
+/// Without a time limit, or on a problem the sweeps do not suit (joints), a solver solves
+/// as it always did: no sweep.
+#[test]
+fn no_budget_no_sweeps() {
+    let p = box_stack();
+    let mut solver = Solver::new(Problem::Global(p.clone()), Settings::default()).unwrap();
+    assert_eq!(solve(&mut solver, &p).0, Status::Solved);
+    assert_eq!(solver.stats().gauss_seidel_sweeps, 0);
+    // One joint: the first velocity held, G = e_0, b = 0.
+    let g = CscMatrix::from_triplets("G", p.n(), 1, &[(0, 0, 1.0)]).unwrap();
+    let jointed = p.clone().with_joints(g, vec![0.0]).unwrap();
+    let mut solver = Solver::new(Problem::Global(jointed.clone()), budget(1e-8, 60.0)).unwrap();
+    assert_eq!(solve(&mut solver, &jointed).0, Status::Solved);
+    assert_eq!(solver.stats().gauss_seidel_sweeps, 0);
+}

@@ -3,7 +3,7 @@
 //! factorization of the coupled system, so that a solver built every step costs its
 //! sweeps and little else. It keeps its own copy of the problem: the islands and their
 //! factorizations are built only when the sweeps stall with time left
-//! (docs/algorithms.md §16).
+//! (docs/algorithms.md §17).
 
 use crate::gauss_seidel::{GaussSeidel, SweepLimits, SweepOutcome};
 use crate::measure::MeasureWork;

@@ -1,6 +1,6 @@
 //! Projected block Gauss-Seidel over the contacts of a global problem whose M is block
 //! diagonal (an engine's rigid bodies): the first phase of a solve under a time budget
-//! (docs/algorithms.md §16). A sweep visits each contact once, solves its own 3 x 3
+//! (docs/algorithms.md §17). A sweep visits each contact once, solves its own 3 x 3
 //! problem with every other impulse held, and moves the velocities by what changed; it
 //! costs one pass over H and factorizes nothing but M's small blocks. Its error falls
 //! fast at first and slowly after (sublinearly on stacks and walls), so within an

@@ -3,7 +3,7 @@
 //! any other is split into its islands ([`Scene`]), each solved by the strategy chosen for
 //! it when the solver is built (docs/algorithms.md §12). A solver built with a time limit
 //! starts each solve with Gauss-Seidel sweeps when the problem suits them, and builds its
-//! islands only when the sweeps hand over (docs/algorithms.md §16).
+//! islands only when the sweeps hand over (docs/algorithms.md §17).
 
 use crate::budgeted::BudgetedStart;
 use crate::coupled::{CoupledSolver, NewtonFirst};
@@ -313,7 +313,7 @@ impl Solver {
             ..self.inner.clone()
         };
         // Not from the sweeps' iterate: that saved a quarter of the iterations on most FCLib
-        // Box_Stacks files but took 4 to 5 times as many on two (docs/algorithms.md §16),
+        // Box_Stacks files but took 4 to 5 times as many on two (docs/algorithms.md §17),
         // so the handover costs the sweeps and nothing else.
         let layout = self.layout.as_mut().expect("built above");
         layout.update_settings(&left);

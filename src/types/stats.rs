@@ -49,7 +49,7 @@ pub struct Stats {
     /// Conjugate-gradient iterations of the matrix-free v-updates (0 when the systems are
     /// factorized; see [`crate::LinearSolver`]).
     pub linear_iterations: usize,
-    /// Gauss-Seidel sweeps of a solver built with a time limit (docs/algorithms.md §16;
+    /// Gauss-Seidel sweeps of a solver built with a time limit (docs/algorithms.md §17;
     /// 0 otherwise), not counted in `iterations`.
     pub gauss_seidel_sweeps: usize,
 }

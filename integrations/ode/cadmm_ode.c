@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 /* A growable allocation: arrays keep their memory from step to step. */
 typedef struct buffer {
@@ -58,6 +59,7 @@ struct cadmm_ode {
 
     /* The previous solve's contacts, for the warm start. */
     buffer previous, used;
+    buffer pair_keys; /* pair_key per previous contact, sorted */
     size_t n_previous;
 };
 
@@ -96,7 +98,8 @@ cadmm_ode_options cadmm_ode_default_options(void) {
 
 cadmm_ode *cadmm_ode_new(const cadmm_ode_options *options) {
     if (!options || !(options->mu >= 0.0) || !isfinite(options->mu) ||
-        !(options->match_radius >= 0.0) || !isfinite(options->match_radius))
+        !(options->match_radius >= 0.0) || !isfinite(options->match_radius) ||
+        !(options->time_limit >= 0.0) || !isfinite(options->time_limit))
         return NULL;
     cadmm_ode *ctx = calloc(1, sizeof *ctx);
     if (!ctx) return NULL;
@@ -104,7 +107,9 @@ cadmm_ode *cadmm_ode_new(const cadmm_ode_options *options) {
     if (cadmm_settings_new(&ctx->settings) != CADMM_OK ||
         cadmm_settings_set_tolerance(ctx->settings, options->tolerance) != CADMM_OK ||
         (options->max_iterations &&
-         cadmm_settings_set_max_iterations(ctx->settings, options->max_iterations) != CADMM_OK)) {
+         cadmm_settings_set_max_iterations(ctx->settings, options->max_iterations) != CADMM_OK) ||
+        (options->time_limit > 0 &&
+         cadmm_settings_set_time_limit(ctx->settings, options->time_limit) != CADMM_OK)) {
         cadmm_ode_free(ctx);
         return NULL;
     }
@@ -121,7 +126,7 @@ void cadmm_ode_free(cadmm_ode *ctx) {
                      &ctx->h_colptr, &ctx->h_rowind, &ctx->h_values,  &ctx->f,
                      &ctx->w,        &ctx->mu,       &ctx->r,         &ctx->v,
                      &ctx->r0,       &ctx->pattern,  &ctx->solver_pattern,
-                     &ctx->previous, &ctx->used};
+                     &ctx->previous, &ctx->used,     &ctx->pair_keys};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++) free(all[i]->data);
     free(ctx);
 }
@@ -423,28 +428,59 @@ static cadmm_result build_problem(cadmm_ode *ctx) {
 
 /* ---- solve and integrate ------------------------------------------------------------- */
 
+/* A contact's geom pair, in either order, and where the contact sits. */
+typedef struct pair_key {
+    uintptr_t lo, hi;
+    size_t index;
+} pair_key;
+
+static pair_key key_of(const contact *k, size_t index) {
+    uintptr_t a = (uintptr_t)k->g1, b = (uintptr_t)k->g2;
+    return (pair_key){a < b ? a : b, a < b ? b : a, index};
+}
+
+static int compare_pairs(const void *x, const void *y) {
+    const pair_key *a = x, *b = y;
+    if (a->lo != b->lo) return a->lo < b->lo ? -1 : 1;
+    if (a->hi != b->hi) return a->hi < b->hi ? -1 : 1;
+    return a->index < b->index ? -1 : a->index > b->index;
+}
+
 /* Initial impulses from the previous step: same geom pair, nearest point within the match
  * radius, each previous point used once; the previous world impulse is expressed in the
- * new frame. Returns how many contacts were matched. */
-static size_t match_previous(cadmm_ode *ctx, double *r0) {
+ * new frame. The previous points are sorted by geom pair, so that each contact searches its
+ * own pair's only. Returns how many contacts were matched, or -1 when out of memory. */
+static long match_previous(cadmm_ode *ctx, double *r0) {
     const contact *cs = ctx->contacts.data, *prev = ctx->previous.data;
     unsigned char *used = ctx->used.data;
+    pair_key *keys = reserve(&ctx->pair_keys, ctx->n_previous, sizeof *keys);
+    if (!keys) return -1;
+    for (size_t p = 0; p < ctx->n_previous; p++) keys[p] = key_of(&prev[p], p);
+    qsort(keys, ctx->n_previous, sizeof *keys, compare_pairs);
     memset(used, 0, ctx->n_previous);
-    size_t matched = 0;
+    long matched = 0;
     for (size_t c = 0; c < ctx->n_contacts; c++) {
         const contact *k = &cs[c];
         double best = ctx->opt.match_radius * ctx->opt.match_radius, sign = 1.0;
         long hit = -1;
-        for (size_t p = 0; p < ctx->n_previous; p++) {
-            bool same = prev[p].g1 == k->g1 && prev[p].g2 == k->g2;
-            bool swapped = prev[p].g1 == k->g2 && prev[p].g2 == k->g1;
-            if (used[p] || !(same || swapped)) continue;
+        /* The first previous point of this pair: a lower bound on (lo, hi, index 0). */
+        pair_key want = key_of(k, 0);
+        size_t from = 0, to = ctx->n_previous;
+        while (from < to) {
+            size_t mid = from + (to - from) / 2;
+            if (compare_pairs(&keys[mid], &want) < 0) from = mid + 1;
+            else to = mid;
+        }
+        for (size_t j = from; j < ctx->n_previous && keys[j].lo == want.lo && keys[j].hi == want.hi;
+             j++) {
+            size_t p = keys[j].index;
+            if (used[p]) continue;
             double d[3] = {prev[p].pos[0] - k->pos[0], prev[p].pos[1] - k->pos[1],
                            prev[p].pos[2] - k->pos[2]};
             if (dot(d, d) <= best) {
                 best = dot(d, d);
                 hit = (long)p;
-                sign = same ? 1.0 : -1.0;
+                sign = prev[p].g1 == k->g1 ? 1.0 : -1.0;
             }
         }
         double *rc = &r0[3 * c];
@@ -468,9 +504,27 @@ static bool same_pattern(const cadmm_ode *ctx) {
                   ctx->pattern_len * sizeof(long)) == 0;
 }
 
+static double seconds_now(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* With a time limit, gives the solve what building and updating left of it (a little at
+ * least: cadmm then runs its few sweeps and hands back their best answer). */
+static cadmm_result limit_solve(cadmm_ode *ctx, double start) {
+    if (!(ctx->opt.time_limit > 0)) return CADMM_OK;
+    double left = ctx->opt.time_limit - (seconds_now() - start);
+    cadmm_result rc = cadmm_settings_set_time_limit(ctx->settings, left > 1e-6 ? left : 1e-6);
+    if (rc == CADMM_OK) rc = cadmm_solver_update_settings(ctx->solver, ctx->settings);
+    if (rc == CADMM_OK) rc = cadmm_settings_set_time_limit(ctx->settings, ctx->opt.time_limit);
+    return rc == CADMM_OK ? rc : fail_cadmm(ctx, rc, "cadmm_solver_update_settings");
+}
+
 /* Builds a new solver or gives the current one the step's values (same pattern: same
- * order of the M and H values), warm starts it and solves. */
+ * order of the M and H values), warm starts it and solves, within the time limit. */
 static cadmm_result solve_contacts(cadmm_ode *ctx, cadmm_ode_step_info *info) {
+    const double start = seconds_now();
     cadmm_result rc;
     info->rebuilt = !same_pattern(ctx);
     if (info->rebuilt) {
@@ -493,12 +547,16 @@ static cadmm_result solve_contacts(cadmm_ode *ctx, cadmm_ode_step_info *info) {
     if (ctx->opt.warm_start && ctx->n_previous > 0) {
         if (!reserve(&ctx->used, ctx->n_previous, 1))
             return fail(ctx, CADMM_ERR_PANIC, "out of memory");
-        info->warm_matched = match_previous(ctx, ctx->r0.data);
+        long matched = match_previous(ctx, ctx->r0.data);
+        if (matched < 0) return fail(ctx, CADMM_ERR_PANIC, "out of memory");
+        info->warm_matched = (size_t)matched;
         if (info->warm_matched > 0) {
             rc = cadmm_solver_warm_start(ctx->solver, ctx->r0.data, ctx->v.data);
             if (rc != CADMM_OK) return fail_cadmm(ctx, rc, "cadmm_solver_warm_start");
         }
     }
+    rc = limit_solve(ctx, start);
+    if (rc != CADMM_OK) return rc;
     rc = cadmm_solver_solve(ctx->solver, &info->status);
     if (rc != CADMM_OK) return fail_cadmm(ctx, rc, "cadmm_solver_solve");
     cadmm_stats stats = {.struct_size = sizeof stats};

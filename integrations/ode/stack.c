@@ -7,6 +7,7 @@
  *                   --solver cadmm|ode-quickstep|ode-step --seconds S
  *                   [--json] [--trace FILE.csv] [--cold] [--check] [--count N] [--seed N]
  *                   [--tolerance T] [--max-iterations N] [--check-tolerance T] [--mu M]
+ *                   [--time-limit S]
  *
  * --count and --seed size and vary big-pyramid, wall and bin (scenes.h).
  *
@@ -22,7 +23,9 @@
  *  - (cadmm) a step's solve ended above its tolerance, or its answer re-measured by the
  *    driver's own copy of the error measure (check.h) on the problem cadmm_ode built is above
  *    the check tolerance (--check-tolerance, default the solver's --tolerance, default 1e-8).
- * 2 means bad arguments or a failed call. --tolerance and --max-iterations set cadmm's, --mu
+ * 2 means bad arguments or a failed call. --time-limit is cadmm's budget per step in
+ * seconds (cadmm_ode_options.time_limit; 0, the default, for none).
+ * --tolerance and --max-iterations set cadmm's, --mu
  * the friction coefficient handed to the solvers (default MU); CTest uses them to show that
  * the checks fire.
  *
@@ -64,7 +67,7 @@ typedef enum { SOLVER_CADMM, SOLVER_QUICKSTEP, SOLVER_STEP } solver_kind;
 typedef struct options {
     const char *scene, *trace;
     solver_kind solver;
-    double seconds, tolerance, check_tolerance, mu;
+    double seconds, tolerance, check_tolerance, mu, time_limit;
     long max_iterations, count;
     unsigned long seed;
     int json, cold, check;
@@ -106,7 +109,7 @@ static int usage(const char *why) {
             "usage: cadmm_ode_stack --scene %s --solver cadmm|ode-quickstep|ode-step\n"
             "                       --seconds S [--json] [--trace FILE.csv] [--cold] [--check]\n"
             "                       [--count N] [--seed N] [--tolerance T] [--max-iterations N]\n"
-            "                       [--check-tolerance T] [--mu M]\n",
+            "                       [--check-tolerance T] [--mu M] [--time-limit S]\n",
             why, scene_names);
     return 2;
 }
@@ -148,6 +151,11 @@ static int parse(int argc, char **argv, options *o) {
             const char *text = argv[++i];
             o->seed = strtoul(text, &end, 10);
             if (*end || !*text || *text == '-') return usage("--seed needs a non-negative integer");
+        } else if (!strcmp(a, "--time-limit") && has_value) {
+            char *end;
+            o->time_limit = strtod(argv[++i], &end);
+            if (*end || !(o->time_limit >= 0) || !isfinite(o->time_limit))
+                return usage("--time-limit needs a non-negative number of seconds (0: none)");
         } else if (!strcmp(a, "--max-iterations") && has_value) {
             char *end;
             o->max_iterations = strtol(argv[++i], &end, 10);
@@ -351,6 +359,7 @@ int main(int argc, char **argv) {
     copt.mu = o.mu;
     copt.tolerance = o.tolerance;
     copt.max_iterations = (uint32_t)o.max_iterations;
+    copt.time_limit = o.time_limit;
     copt.warm_start = !o.cold;
     cadmm_ode *ctx = cadmm_ode_new(&copt);
     FILE *trace = o.trace ? fopen(o.trace, "w") : NULL;

@@ -28,7 +28,7 @@ pub(crate) struct BudgetedStart {
 
 impl BudgetedStart {
     /// The sweeps for `problem` when `settings` set a time limit and the problem is
-    /// global, without joints, with M made of small symmetric blocks; `None` otherwise.
+    /// global, with M made of small symmetric blocks; `None` otherwise.
     pub(crate) fn sweeps_for(problem: &Problem, settings: &Settings) -> Option<GaussSeidel> {
         match problem {
             Problem::Global(g) if settings.time_limit.is_finite() => GaussSeidel::new(g),
@@ -141,10 +141,11 @@ impl BudgetedStart {
 
     /// Writes the best iterate of the last run into `out`.
     pub(crate) fn write_solution(&self, out: &mut Solution) {
-        let (r, v) = self.sweeps.best();
-        out.zeroed(r.len(), v.len(), 0);
+        let (r, v, lambda) = self.sweeps.best();
+        out.zeroed(r.len(), v.len(), lambda.len());
         out.r.copy_from_slice(r);
         out.v.copy_from_slice(v);
+        out.lambda.copy_from_slice(lambda);
         out.u.copy_from_slice(&self.problem.w);
         self.problem.h.mul_t_vec(1.0, v, 1.0, &mut out.u);
     }

@@ -1,0 +1,320 @@
+//! Projected block Gauss-Seidel over the contacts (and joint rows) of a global problem
+//! whose M is block diagonal (an engine's rigid bodies): the first phase of a solve under a
+//! time budget (docs/algorithms.md §17). A sweep visits each contact once, solves its own
+//! 3 x 3 problem with every other impulse held, then each joint row, and moves the
+//! velocities by what changed; it costs one pass over H and G and factorizes nothing but
+//! M's small blocks. Its error falls fast at first and slowly after (sublinearly on stacks
+//! and walls), so within an engine's milliseconds it answers far better than a few ADMM
+//! iterations can, and it hands over to ADMM and Newton once a doubling of its sweeps no
+//! longer pays.
+
+mod contact;
+mod rows;
+
+use crate::cone::{get3, set3};
+use crate::linsys::BlockDiagonal;
+use crate::measure::{global_error_with, MeasureWork};
+use crate::problem::GlobalProblem;
+use crate::tuning::{
+    GAUSS_SEIDEL_FIRST_MEASURE, GAUSS_SEIDEL_HANDOVER_SWEEPS, GAUSS_SEIDEL_PATIENCE,
+};
+use crate::types::{Error, Status};
+use contact::ContactBlock;
+use rows::RowGroups;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+/// The sweeps' data and iterates.
+pub(crate) struct GaussSeidel {
+    /// M's blocks and their inverses.
+    mass: BlockDiagonal,
+    /// Zeros laid out as M's blocks (what `BlockDiagonal::invert` adds to them).
+    no_shift: Vec<f64>,
+    /// The contacts' columns of H, and each contact's own problem.
+    contacts: RowGroups,
+    blocks: Vec<ContactBlock>,
+    /// The joints' columns of G (none without joints), and each row's
+    /// `1 / (G_j^T M^-1 G_j)` (0 for a row no velocity moves).
+    joints: Option<RowGroups>,
+    joint_gain: Vec<f64>,
+    /// The current iterate (`v = M^-1 (f + H r + G lambda)` up to the sweeps' round-off).
+    r: Vec<f64>,
+    lambda: Vec<f64>,
+    v: Vec<f64>,
+    /// The best iterate measured, and its error.
+    best_r: Vec<f64>,
+    best_lambda: Vec<f64>,
+    best_v: Vec<f64>,
+    best_error: f64,
+    /// `f + H r + G lambda`, while the velocities are computed from it; positions of the
+    /// velocities in a group's reach, while its values are taken.
+    forces: Vec<f64>,
+    position: Vec<usize>,
+}
+
+/// How a run of sweeps ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct SweepOutcome {
+    /// `Some` when the run ended the solve (solved, or out of time or sweeps); `None` when
+    /// it hands over.
+    pub status: Option<Status>,
+    pub sweeps: usize,
+    /// The best error measured (that of [`GaussSeidel::best`]).
+    pub error: f64,
+}
+
+impl GaussSeidel {
+    /// The sweeps for `p` when its M is made of small symmetric blocks on the diagonal;
+    /// `None` otherwise. [`GaussSeidel::take_values`] takes the values before the first
+    /// run.
+    pub(crate) fn new(p: &GlobalProblem) -> Option<Self> {
+        let mut mass = BlockDiagonal::of(&p.m)?;
+        mass.take_values(&p.m);
+        if !mass.is_symmetric() {
+            return None;
+        }
+        let contacts = RowGroups::new(&p.h, 3, &mass);
+        let joints = p.joints.as_ref().map(|j| RowGroups::new(&j.g, 1, &mass));
+        let (n, m, np) = (p.n(), p.w.len(), p.n_joints());
+        Some(Self {
+            no_shift: vec![0.0; mass.entries()],
+            mass,
+            contacts,
+            blocks: vec![ContactBlock::default(); p.n_contacts()],
+            joints,
+            joint_gain: vec![0.0; np],
+            r: vec![0.0; m],
+            lambda: vec![0.0; np],
+            v: vec![0.0; n],
+            best_r: vec![0.0; m],
+            best_lambda: vec![0.0; np],
+            best_v: vec![0.0; n],
+            best_error: f64::INFINITY,
+            forces: vec![0.0; n],
+            position: vec![0; n],
+        })
+    }
+
+    /// Inverts M's blocks (an error when one is not positive definite, or M is not
+    /// symmetric) and computes each contact's and joint row's data, for `p` (the pattern
+    /// the sweeps were built for).
+    pub(crate) fn take_values(&mut self, p: &GlobalProblem) -> Result<(), Error> {
+        self.mass.take_values(&p.m);
+        if !self.mass.is_symmetric() {
+            return Err(Error::Unsupported(
+                "Gauss-Seidel sweeps: M is no longer symmetric".into(),
+            ));
+        }
+        if self.mass.invert(0.0, &self.no_shift).is_err() {
+            return Err(Error::NotPositiveDefinite { field: "M" });
+        }
+        self.contacts
+            .take_values(&p.h, &self.mass, &mut self.position);
+        for (c, block) in self.blocks.iter_mut().enumerate() {
+            *block = ContactBlock::of(self.contacts.delassus(c));
+        }
+        if let (Some(rows), Some(j)) = (&mut self.joints, &p.joints) {
+            rows.take_values(&j.g, &self.mass, &mut self.position);
+            for (k, gain) in self.joint_gain.iter_mut().enumerate() {
+                let d = rows.delassus(k)[0];
+                *gain = if d > 0.0 { 1.0 / d } else { 0.0 };
+            }
+        }
+        Ok(())
+    }
+
+    /// Sweeps from the impulses `r0` (zero when `None`; the joint multipliers from zero)
+    /// until the measure meets
+    /// `tolerance`, `max_sweeps` are done, the next sweep and measure would end past
+    /// `deadline` (judged by the last ones; never before [`GAUSS_SEIDEL_FIRST_MEASURE`]
+    /// sweeps), or the sweeps hand over ([`hand_over`]). The
+    /// error is measured before the first sweep, after [`GAUSS_SEIDEL_FIRST_MEASURE`]
+    /// sweeps and each doubling of them, and at the end; the best iterate
+    /// measured is kept ([`GaussSeidel::best`]).
+    pub(crate) fn run(
+        &mut self,
+        p: &GlobalProblem,
+        r0: Option<&[f64]>,
+        limits: SweepLimits,
+        work: &mut MeasureWork,
+    ) -> SweepOutcome {
+        let t0 = Instant::now();
+        match r0 {
+            Some(r) => self.r.copy_from_slice(r),
+            None => self.r.fill(0.0),
+        }
+        self.lambda.fill(0.0);
+        self.best_error = f64::INFINITY;
+        let mut previous = self.measure(p, work);
+        let mut outcome = SweepOutcome {
+            status: None,
+            sweeps: 0,
+            error: previous,
+        };
+        let (mut sweep_time, mut measure_time) = (0.0, t0.elapsed().as_secs_f64());
+        let (mut checkpoint, mut measured) = (GAUSS_SEIDEL_FIRST_MEASURE, true);
+        outcome.status = measured_status(previous, limits);
+        while outcome.status.is_none() {
+            let left = limits.deadline.map_or(f64::INFINITY, seconds_until);
+            // Fewer sweeps than the first measure's answer worse than an engine's own solver
+            // does: the budget yields to them.
+            let interrupted = limits.interrupt.is_some_and(|i| i.load(Ordering::Relaxed));
+            let out_of_time = interrupted
+                || (left < sweep_time + measure_time
+                    && outcome.sweeps >= GAUSS_SEIDEL_FIRST_MEASURE);
+            if out_of_time || outcome.sweeps >= limits.max_sweeps {
+                if !measured {
+                    self.measure(p, work);
+                }
+                outcome.status = Some(match out_of_time {
+                    true => Status::TimeLimit,
+                    false => Status::MaxIterations,
+                });
+            } else {
+                let at = Instant::now();
+                self.sweep(p);
+                sweep_time = at.elapsed().as_secs_f64();
+                outcome.sweeps += 1;
+                measured = outcome.sweeps == checkpoint;
+                if measured {
+                    let at = Instant::now();
+                    let error = self.measure(p, work);
+                    measure_time = at.elapsed().as_secs_f64();
+                    checkpoint *= 2;
+                    let progress = Progress {
+                        sweeps: outcome.sweeps,
+                        seconds: t0.elapsed().as_secs_f64(),
+                        halved_from: previous,
+                        error,
+                    };
+                    if progress.sweeps >= 8 && hand_over(progress, limits) {
+                        outcome.error = self.best_error;
+                        break;
+                    }
+                    previous = error;
+                }
+            }
+            outcome.error = self.best_error;
+            outcome.status = outcome.status.or(measured_status(outcome.error, limits));
+        }
+        outcome
+    }
+
+    /// One pass over the contacts in order, then over the joint rows.
+    fn sweep(&mut self, p: &GlobalProblem) {
+        for c in 0..self.blocks.len() {
+            let hv = self.contacts.apply(c, &self.v);
+            let w = get3(&p.w, c);
+            let u = [hv[0] + w[0], hv[1] + w[1], hv[2] + w[2]];
+            let block = &self.blocks[c];
+            let r_old = get3(&self.r, c);
+            let w_r = block.mul(r_old);
+            let q = [u[0] - w_r[0], u[1] - w_r[1], u[2] - w_r[2]];
+            let r_new = block.solve(q, p.mu[c], r_old);
+            let dr = [
+                r_new[0] - r_old[0],
+                r_new[1] - r_old[1],
+                r_new[2] - r_old[2],
+            ];
+            if dr != [0.0; 3] {
+                set3(&mut self.r, c, r_new);
+                self.contacts.add(c, dr, &mut self.v);
+            }
+        }
+        let (Some(rows), Some(j)) = (&self.joints, &p.joints) else {
+            return;
+        };
+        // Each row's multiplier makes its residual `G_j^T v + b_j` zero, the others held.
+        for (k, &gain) in self.joint_gain.iter().enumerate() {
+            let step = -gain * (rows.apply(k, &self.v)[0] + j.b[k]);
+            if step != 0.0 {
+                self.lambda[k] += step;
+                rows.add(k, [step, 0.0, 0.0], &mut self.v);
+            }
+        }
+    }
+
+    /// Recomputes `v = M^-1 (f + H r + G lambda)` exactly (the sweeps' increments drift),
+    /// measures the iterate and keeps it when it is the best so far; returns its error.
+    fn measure(&mut self, p: &GlobalProblem, work: &mut MeasureWork) -> f64 {
+        self.forces.copy_from_slice(&p.f);
+        p.h.mul_vec(1.0, &self.r, 1.0, &mut self.forces);
+        if let Some(j) = &p.joints {
+            j.g.mul_vec(1.0, &self.lambda, 1.0, &mut self.forces);
+        }
+        self.mass
+            .mul_inverse(0..self.mass.block_count(), &self.forces, &mut self.v);
+        let error = global_error_with(p, &self.r, &self.v, &self.lambda, work);
+        if error < self.best_error || !self.best_error.is_finite() {
+            self.best_error = error;
+            self.best_r.copy_from_slice(&self.r);
+            self.best_lambda.copy_from_slice(&self.lambda);
+            self.best_v.copy_from_slice(&self.v);
+        }
+        error
+    }
+
+    /// The best iterate measured in the last run: impulses, velocities and joint
+    /// multipliers.
+    pub(crate) fn best(&self) -> (&[f64], &[f64], &[f64]) {
+        (&self.best_r, &self.best_v, &self.best_lambda)
+    }
+}
+
+/// The sweeps' progress at a checkpoint: the error after `sweeps` sweeps, and after half
+/// as many.
+#[derive(Debug, Clone, Copy)]
+struct Progress {
+    sweeps: usize,
+    seconds: f64,
+    halved_from: f64,
+    error: f64,
+}
+
+/// Whether the sweeps should hand over to ADMM and Newton: when, at the rate of the
+/// last doubling of the sweeps, they would need more than [`GAUSS_SEIDEL_PATIENCE`]
+/// times the time spent so far to meet the tolerance, or more than the time left; and
+/// only when the time left could pay for the coupled solve (at least
+/// [`GAUSS_SEIDEL_HANDOVER_SWEEPS`] sweeps' worth). Otherwise the sweeps are the best
+/// use of the time left.
+fn hand_over(at: Progress, limits: SweepLimits) -> bool {
+    let per_sweep = at.seconds / at.sweeps as f64;
+    let left = limits.deadline.map_or(f64::INFINITY, seconds_until);
+    if left < GAUSS_SEIDEL_HANDOVER_SWEEPS * per_sweep {
+        return false;
+    }
+    let rate = at.error / at.halved_from;
+    let needed = match rate < 1.0 && at.error > 0.0 {
+        // Doublings of the sweeps still needed, at this rate.
+        true => (limits.tolerance / at.error).ln() / rate.ln(),
+        false => f64::INFINITY,
+    };
+    let to_go = at.seconds * (needed.exp2() - 1.0);
+    to_go > (GAUSS_SEIDEL_PATIENCE * at.seconds).min(left)
+}
+
+/// The status an error ends the sweeps with: solved at the tolerance, a numerical error
+/// when not finite, none otherwise.
+fn measured_status(error: f64, limits: SweepLimits) -> Option<Status> {
+    match error {
+        e if e <= limits.tolerance => Some(Status::Solved),
+        e if !e.is_finite() => Some(Status::NumericalError),
+        _ => None,
+    }
+}
+
+/// Seconds from now until `deadline` (0 once past).
+fn seconds_until(deadline: Instant) -> f64 {
+    deadline
+        .saturating_duration_since(Instant::now())
+        .as_secs_f64()
+}
+
+/// What bounds a run of sweeps; a set `interrupt` ends it as the deadline does.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SweepLimits<'a> {
+    pub tolerance: f64,
+    pub deadline: Option<Instant>,
+    pub max_sweeps: usize,
+    pub interrupt: Option<&'a AtomicBool>,
+}

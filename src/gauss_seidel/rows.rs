@@ -1,0 +1,159 @@
+//! Groups of rows of a constraint matrix over the velocities they reach: a contact's three
+//! columns of H, a joint's column of G. Each group keeps its rows of `A^T` and of
+//! `(M^-1 A)^T` densely over its reach (the unknowns of the blocks of M its columns touch),
+//! which is all a sweep reads and writes for it.
+
+use crate::csc::CscMatrix;
+use crate::linsys::BlockDiagonal;
+
+pub(super) struct RowGroups {
+    /// Rows per group: 3 for contacts, 1 for joint rows.
+    rows: usize,
+    /// Group `g` reaches the velocities `reach[start[g]..start[g + 1]]`, whole blocks of M
+    /// in the blocks' order.
+    start: Vec<usize>,
+    reach: Vec<usize>,
+    /// Group `g`'s rows of `A^T` over its reach, one after the other from
+    /// `rows * start[g]`; `minv_a` the same for `(M^-1 A)^T`.
+    a_t: Vec<f64>,
+    minv_a: Vec<f64>,
+}
+
+impl RowGroups {
+    /// The groups of `rows` consecutive columns of `a` (`n x rows groups`), over the blocks
+    /// of `mass`. Values are taken by [`RowGroups::take_values`].
+    pub fn new(a: &CscMatrix, rows: usize, mass: &BlockDiagonal) -> Self {
+        let groups = a.ncols() / rows;
+        let mut start = Vec::with_capacity(groups + 1);
+        start.push(0);
+        let mut reach = Vec::with_capacity(2 * a.nnz() / rows);
+        // A group touches one or two bodies: a linear search beats sorting its entries.
+        let mut touched: Vec<usize> = Vec::new();
+        for g in 0..groups {
+            touched.clear();
+            for d in 0..rows {
+                for (i, _) in a.col(rows * g + d) {
+                    let b = mass.block_containing(i);
+                    if !touched.contains(&b) {
+                        touched.push(b);
+                    }
+                }
+            }
+            touched.sort_unstable();
+            for &b in &touched {
+                reach.extend_from_slice(mass.block(b));
+            }
+            start.push(reach.len());
+        }
+        let len = rows * reach.len();
+        Self {
+            rows,
+            start,
+            reach,
+            a_t: vec![0.0; len],
+            minv_a: vec![0.0; len],
+        }
+    }
+
+    /// Number of groups.
+    pub fn len(&self) -> usize {
+        self.start.len() - 1
+    }
+
+    /// Takes `a`'s values and computes `M^-1 A` with the inverses of `mass`'s blocks
+    /// ([`BlockDiagonal::invert`] done); `position` is work space over the velocities.
+    pub fn take_values(&mut self, a: &CscMatrix, mass: &BlockDiagonal, position: &mut [usize]) {
+        let rows = self.rows;
+        for g in 0..self.len() {
+            let (from, to) = (self.start[g], self.start[g + 1]);
+            let len = to - from;
+            for (k, &i) in self.reach[from..to].iter().enumerate() {
+                position[i] = k;
+            }
+            let span = rows * from..rows * to;
+            let (a_t, minv_a) = (&mut self.a_t[span.clone()], &mut self.minv_a[span]);
+            a_t.fill(0.0);
+            for d in 0..rows {
+                for (i, x) in a.col(rows * g + d) {
+                    a_t[d * len + position[i]] = x;
+                }
+            }
+            let mut k = 0;
+            while k < len {
+                let b = mass.block_containing(self.reach[from + k]);
+                let (inverse, size) = (mass.inverse_block(b), mass.block(b).len());
+                for d in 0..rows {
+                    let at = d * len + k..d * len + k + size;
+                    mul_symmetric(inverse, &a_t[at.clone()], &mut minv_a[at]);
+                }
+                k += size;
+            }
+        }
+    }
+
+    /// `A_g^T M^-1 A_g`, `rows x rows`, row-major (in the top left of a 3 x 3 array).
+    pub fn delassus(&self, g: usize) -> [f64; 9] {
+        let (from, to) = (self.start[g], self.start[g + 1]);
+        let len = to - from;
+        let (a_t, minv_a) = (
+            &self.a_t[self.rows * from..self.rows * to],
+            &self.minv_a[self.rows * from..self.rows * to],
+        );
+        let mut w = [0.0; 9];
+        for a in 0..self.rows {
+            for b in 0..self.rows {
+                let (x, y) = (
+                    &a_t[a * len..(a + 1) * len],
+                    &minv_a[b * len..(b + 1) * len],
+                );
+                w[3 * a + b] = x.iter().zip(y).map(|(x, y)| x * y).sum();
+            }
+        }
+        w
+    }
+
+    /// `A_g^T v` (its first `rows` entries).
+    pub fn apply(&self, g: usize, v: &[f64]) -> [f64; 3] {
+        let (from, to) = (self.start[g], self.start[g + 1]);
+        let (len, reach) = (to - from, &self.reach[from..to]);
+        let a_t = &self.a_t[self.rows * from..self.rows * to];
+        let mut out = [0.0; 3];
+        for (d, out) in out.iter_mut().enumerate().take(self.rows) {
+            let row = &a_t[d * len..(d + 1) * len];
+            *out = row.iter().zip(reach).map(|(a, &i)| a * v[i]).sum();
+        }
+        out
+    }
+
+    /// `v += M^-1 A_g x` (the first `rows` entries of `x`).
+    pub fn add(&self, g: usize, x: [f64; 3], v: &mut [f64]) {
+        let (from, to) = (self.start[g], self.start[g + 1]);
+        let (len, reach) = (to - from, &self.reach[from..to]);
+        let minv_a = &self.minv_a[self.rows * from..self.rows * to];
+        for (d, &xd) in x.iter().enumerate().take(self.rows) {
+            let row = &minv_a[d * len..(d + 1) * len];
+            for (m, &i) in row.iter().zip(reach) {
+                v[i] += m * xd;
+            }
+        }
+    }
+}
+
+/// `y = A x` for a symmetric column-major `A` (its columns are its rows), unrolled for a
+/// rigid body's 6 x 6 block.
+fn mul_symmetric(a: &[f64], x: &[f64], y: &mut [f64]) {
+    if let (Ok(x), true) = (<&[f64; 6]>::try_from(x), a.len() == 36) {
+        for (y, row) in y.iter_mut().zip(a.chunks_exact(6)) {
+            *y = row[0] * x[0]
+                + row[1] * x[1]
+                + row[2] * x[2]
+                + row[3] * x[3]
+                + row[4] * x[4]
+                + row[5] * x[5];
+        }
+        return;
+    }
+    for (y, row) in y.iter_mut().zip(a.chunks_exact(x.len())) {
+        *y = row.iter().zip(x).map(|(a, x)| a * x).sum();
+    }
+}

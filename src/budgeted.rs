@@ -1,5 +1,5 @@
 //! The first phase of a solver built with a time limit (an engine's per-step budget):
-//! Gauss-Seidel sweeps over the whole problem (`gauss_seidel.rs`), which need no
+//! Gauss-Seidel sweeps over the whole problem (`gauss_seidel/`), which need no
 //! factorization of the coupled system, so that a solver built every step costs its
 //! sweeps and little else. It keeps its own copy of the problem: the islands and their
 //! factorizations are built only when the sweeps stall with time left

@@ -1,11 +1,17 @@
 #!/usr/bin/env python3
 """The engine benchmark: every Bullet scene of integrations/bullet run with cadmm at 1e-4,
-1e-6 and 1e-8 and with Bullet's sequential impulse at 10 and 100 iterations, side by side in
-one run, each configuration `--repeats` times (medians reported).
+1e-6 and 1e-8, with cadmm under a time budget, and with Bullet's sequential impulse at 10
+and 100 iterations, side by side in one run, each configuration `--repeats` times (medians
+reported).
 
     python3 scripts/engine_bench.py --driver build-bullet/cadmm_bullet_stack \\
         [--scenes wall,bin,chain,big-pyramid] [--solvers "cadmm 1e-4,Bullet SI100"]
         [--seconds 3] [--repeats 3] [--out DIR]
+
+"cadmm budget" runs cadmm at 1e-4 with SolverOptions::timeLimit set to the mean step of the
+same repeat's "Bullet SI100" run (which runs first), and compares the two runs step by
+step: the share of steps whose answer measures below SI100's at the same step, and the
+median and 95th percentile of the steps' errors.
 
 Per scene and solver: mean, p99 and longest step (ms of solveGroup, medians over the
 repeats), the worst error of the answers by the common measure (cadmm_problem_error on the
@@ -15,6 +21,7 @@ largest joint gap). Writes DIR/engine.jsonl (every run), DIR/engine.md (the tabl
 DIR/engine.png (mean step time against worst error, one panel per scene).
 """
 import argparse
+import csv
 import json
 import os
 import statistics
@@ -27,11 +34,33 @@ SOLVERS = [
     ("cadmm 1e-8", ["--solver", "cadmm", "--tolerance", "1e-8"]),
     ("Bullet SI10", ["--solver", "bullet", "--bullet-iterations", "10"]),
     ("Bullet SI100", ["--solver", "bullet", "--bullet-iterations", "100"]),
+    # Its --time-limit is SI100's mean step of the same repeat, added at run time.
+    ("cadmm budget", ["--solver", "cadmm", "--tolerance", "1e-4"]),
 ]
 
 
-def run(driver, scene, args, seconds, timeout):
+def step_errors(trace):
+    """The error of each step of a driver's --trace CSV."""
+    with open(trace) as f:
+        return [float(row["error"]) for row in csv.DictReader(f)]
+
+
+def compare_steps(budget_trace, peer_trace):
+    """Share of steps whose budgeted answer measures below the peer's, and the budgeted
+    run's median and 95th percentile step error."""
+    ours, peer = step_errors(budget_trace), step_errors(peer_trace)
+    n = min(len(ours), len(peer))
+    ranked = sorted(ours)
+    return {"steps_below_peer": sum(a < b for a, b in zip(ours, peer)) / n if n else None,
+            "median_error": ranked[len(ranked) // 2] if ranked else None,
+            "p95_error": ranked[int(0.95 * len(ranked))] if ranked else None}
+
+
+
+def run(driver, scene, args, seconds, timeout, trace=None):
     cmd = [driver, "--scene", scene, "--seconds", str(seconds), "--json"] + args
+    if trace:
+        cmd += ["--trace", trace]
     try:
         out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
@@ -62,12 +91,26 @@ def main():
     chosen = [(name, args) for name, args in SOLVERS if name in a.solvers.split(",")]
     if not chosen:
         ap.error(f"--solvers: none of {a.solvers!r} is one of {[n for n, _ in SOLVERS]}")
+    names = [name for name, _ in chosen]
+    if "cadmm budget" in names and "Bullet SI100" not in names:
+        ap.error("--solvers: \"cadmm budget\" takes its budget from \"Bullet SI100\"")
     rows, table = [], {}
     with open(os.path.join(a.out, "engine.jsonl"), "w") as log:
         for scene in a.scenes.split(","):
             for rep in range(a.repeats):  # interleaved: the machine's load hits all alike
+                si100 = None
                 for name, args in chosen:
-                    r = run(a.driver, scene, args, a.seconds, a.timeout)
+                    trace = os.path.join(a.out, f"{scene}-{name.replace(' ', '-')}-{rep}.csv")
+                    if name == "cadmm budget":
+                        budget = (si100 or {}).get("mean_solve_ms")
+                        if budget is None:
+                            continue
+                        args = args + ["--time-limit", f"{budget / 1e3:.6g}"]
+                    r = run(a.driver, scene, args, a.seconds, a.timeout, trace)
+                    if name == "Bullet SI100":
+                        si100 = dict(r, trace=trace)
+                    if name == "cadmm budget" and "steps" in r:
+                        r.update(budget_ms=budget, **compare_steps(trace, si100["trace"]))
                     r.update(label=name, repeat=rep, scene=scene)
                     log.write(json.dumps(r) + "\n")
                     log.flush()
@@ -76,17 +119,20 @@ def main():
                           f"max {r.get('max_solve_ms')} ms, error {r.get('max_error')}",
                           file=sys.stderr, flush=True)
     lines = ["| scene | solver | mean step (ms) | p99 (ms) | longest (ms) | worst error | "
-             "unsolved steps | deepest penetration (m) | joint gap (m) |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "median / p95 step error | steps below SI100 | unsolved steps | "
+             "deepest penetration (m) | joint gap (m) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for (scene, name), runs in table.items():
         ok = [r for r in runs if "steps" in r]
         if not ok:
             why = "timed out" if runs[0].get("timeout") else runs[0].get("failed", "failed")
-            lines.append(f"| {scene} | {name} | {why} | | | | | | |")
+            lines.append(f"| {scene} | {name} | {why} | | | | | | | | |")
             continue
         f = lambda k, fmt="{:.3g}": (fmt.format(median(ok, k)) if median(ok, k) is not None else "-")
         lines.append(f"| {scene} | {name} | {f('mean_solve_ms')} | {f('p99_solve_ms')} | "
                      f"{f('max_solve_ms')} | {f('max_error', '{:.1e}')} | "
+                     f"{f('median_error', '{:.1e}')} / {f('p95_error', '{:.1e}')} | "
+                     f"{f('steps_below_peer', '{:.0%}')} | "
                      f"{f('unsolved_steps', '{:.0f}')} | {f('max_penetration')} | "
                      f"{f('max_joint_gap')} |")
         rows.append((scene, name, median(ok, "mean_solve_ms"), median(ok, "max_error")))

@@ -27,6 +27,7 @@ impl ContactBlock {
         }
     }
 
+    #[inline]
     pub fn mul(&self, x: [f64; 3]) -> [f64; 3] {
         let w = &self.w;
         [
@@ -39,6 +40,7 @@ impl ContactBlock {
     /// The contact's impulse for `u = W r + q`, the others held: none when `q` separates,
     /// the sticking impulse `-W^-1 q` when it lies in the cone, and otherwise a few steps
     /// of the projected fixed point `r <- P_K(r - step (u + mu ||u_T|| e_N))` from `r`.
+    #[inline]
     pub fn solve(&self, q: [f64; 3], mu: f64, mut r: [f64; 3]) -> [f64; 3] {
         if q[0] >= 0.0 {
             return [0.0; 3];

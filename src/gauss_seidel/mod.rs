@@ -31,11 +31,11 @@ pub(crate) struct GaussSeidel {
     /// Zeros laid out as M's blocks (what `BlockDiagonal::invert` adds to them).
     no_shift: Vec<f64>,
     /// The contacts' columns of H, and each contact's own problem.
-    contacts: RowGroups,
+    contacts: RowGroups<3>,
     blocks: Vec<ContactBlock>,
     /// The joints' columns of G (none without joints), and each row's
     /// `1 / (G_j^T M^-1 G_j)` (0 for a row no velocity moves).
-    joints: Option<RowGroups>,
+    joints: Option<RowGroups<1>>,
     joint_gain: Vec<f64>,
     /// The current iterate (`v = M^-1 (f + H r + G lambda)` up to the sweeps' round-off).
     r: Vec<f64>,
@@ -73,8 +73,8 @@ impl GaussSeidel {
         if !mass.is_symmetric() {
             return None;
         }
-        let contacts = RowGroups::new(&p.h, 3, &mass);
-        let joints = p.joints.as_ref().map(|j| RowGroups::new(&j.g, 1, &mass));
+        let contacts = RowGroups::new(&p.h, &mass);
+        let joints = p.joints.as_ref().map(|j| RowGroups::new(&j.g, &mass));
         let (n, m, np) = (p.n(), p.w.len(), p.n_joints());
         Some(Self {
             no_shift: vec![0.0; mass.entries()],
@@ -229,7 +229,7 @@ impl GaussSeidel {
             let step = -gain * (rows.apply(k, &self.v)[0] + j.b[k]);
             if step != 0.0 {
                 self.lambda[k] += step;
-                rows.add(k, [step, 0.0, 0.0], &mut self.v);
+                rows.add(k, [step], &mut self.v);
             }
         }
     }

@@ -688,9 +688,12 @@ static void test_time_limit_overrun(void)
               "one iteration takes %.4f s, not less than the limit %.2f s: a larger problem "
               "than needed, or a slow machine", one_iteration, limit);
 
+    /* Built without a limit, which is then set: ADMM and Newton run into it. (A solver built
+       with one starts with Gauss-Seidel sweeps, checked after.) */
     REQUIRE_OK(cadmm_settings_set_max_iterations(s, 1000000000u));
-    REQUIRE_OK(cadmm_settings_set_time_limit(s, limit));
     REQUIRE_OK(cadmm_solver_new(lib, s, &sv));
+    REQUIRE_OK(cadmm_settings_set_time_limit(s, limit));
+    REQUIRE_OK(cadmm_solver_update_settings(sv, s));
     t0 = now_seconds();
     solve_into("time limit 0.05 s", sv, &p, 1e-14, CADMM_STATUS_TIME_LIMIT, &o);
     wall = now_seconds() - t0;
@@ -716,6 +719,27 @@ static void test_time_limit_overrun(void)
               wall, st.solve_seconds, limit);
     CHECK_MSG(st.iterations >= 1 && st.iterations < 1000000000u, "%llu iterations",
               (unsigned long long)st.iterations);
+    CHECK_MSG(st.gauss_seidel_sweeps == 0, "%llu sweeps without a limit at build",
+              (unsigned long long)st.gauss_seidel_sweeps);
+    cadmm_solver_free(sv);
+
+    /* Built with the limit (M is made of the bodies' blocks): sweeps first, each started only
+       when it and a measure fit in what is left; at 1e-14 they hand over to ADMM and Newton
+       while enough time is left. Either way the solve ends within the same bound, and not
+       long before the limit. */
+    REQUIRE_OK(cadmm_solver_new(lib, s, &sv));
+    t0 = now_seconds();
+    solve_into("time limit 0.05 s, built with it", sv, &p, 1e-14, CADMM_STATUS_TIME_LIMIT, &o);
+    wall = now_seconds() - t0;
+    st = o.stats;
+    tu_outcome_free(&o);
+    printf("  built with the limit: %llu sweeps, %llu iterations, %.4f s wall\n",
+           (unsigned long long)st.gauss_seidel_sweeps, (unsigned long long)st.iterations, wall);
+    CHECK_MSG(st.gauss_seidel_sweeps >= 4, "%llu sweeps",
+              (unsigned long long)st.gauss_seidel_sweeps);
+    CHECK_MSG(wall <= bound && wall >= 0.5 * limit,
+              "the swept solve took %.4f s with a limit of %.2f s (bound %.4f s)", wall, limit,
+              bound);
 
     cadmm_solver_free(sv);
     cadmm_settings_free(s);

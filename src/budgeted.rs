@@ -8,7 +8,7 @@
 use crate::gauss_seidel::{GaussSeidel, SweepLimits, SweepOutcome};
 use crate::measure::MeasureWork;
 use crate::problem::{check_len, GlobalProblem, KeptValues, NewValues, Problem, ProblemRef};
-use crate::settings::Settings;
+use crate::settings::{Settings, VariantChoice};
 use crate::types::{Error, Solution};
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
@@ -27,11 +27,13 @@ pub(crate) struct BudgetedStart {
 }
 
 impl BudgetedStart {
-    /// The sweeps for `problem` when `settings` set a time limit and the problem is
-    /// global, with M made of small symmetric blocks; `None` otherwise.
+    /// The sweeps for `problem` when `settings` ask for `auto` with a time limit and the
+    /// problem is global, with M made of small symmetric blocks; `None` otherwise (a named
+    /// variant runs as named).
     pub(crate) fn sweeps_for(problem: &Problem, settings: &Settings) -> Option<GaussSeidel> {
+        let auto = settings.variant == VariantChoice::Auto;
         match problem {
-            Problem::Global(g) if settings.time_limit.is_finite() => GaussSeidel::new(g),
+            Problem::Global(g) if auto && settings.time_limit.is_finite() => GaussSeidel::new(g),
             _ => None,
         }
     }

@@ -84,7 +84,7 @@ pub struct Settings {
     /// so a solve can overrun by one step: with the factorized backend, a refactorization
     /// when rho changes or a Newton factorization (tens of milliseconds on a large
     /// problem). Building the solver (analysis, first factorization) and updating it are
-    /// outside the limit. A solver built with a limit (an engine's budget per step) starts
+    /// outside the limit. An `auto` solver built with a limit (an engine's budget per step) starts
     /// each solve of a global problem whose M is block diagonal with
     /// Gauss-Seidel sweeps, and builds its islands only if the sweeps hand over
     /// (docs/algorithms.md §17); otherwise a limit that is not reached does not change the

@@ -835,7 +835,15 @@ pub fn run(
         finite: true,
         solution: Solution::default(),
     };
-    let solved = Solver::new(problem.clone(), settings).and_then(|mut s| {
+    // Built without the time limit, which is set after: a solver built with one starts
+    // with Gauss-Seidel sweeps (an engine's budget), and the limit here only keeps a
+    // failing case from running on.
+    let unlimited = Settings {
+        time_limit: f64::INFINITY,
+        ..settings.clone()
+    };
+    let solved = Solver::new(problem.clone(), unlimited).and_then(|mut s| {
+        s.update_settings(settings)?;
         let status = s.solve()?;
         Ok((status, s))
     });

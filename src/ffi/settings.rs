@@ -154,10 +154,10 @@ pub unsafe extern "C" fn cadmm_settings_set_max_iterations(
 /// backend, a refactorization when rho changes or a Newton factorization (tens of
 /// milliseconds on a large problem). `cadmm_solver_new` (analysis, first factorization)
 /// and the updates are outside the limit. A solver built with settings that have a limit
-/// (an engine's budget per step) starts each solve of a global problem whose M is block
-/// diagonal with Gauss-Seidel sweeps, at least 4 of them, and builds its
-/// islands (analysis, factorization) only if the sweeps hand over to ADMM and Newton
-/// (docs/algorithms.md §17); `cadmm_stats.gauss_seidel_sweeps` counts them. Otherwise a
+/// and the variant `auto` (an engine's budget per step) starts each solve of a global
+/// problem whose M is block diagonal with Gauss-Seidel sweeps, at least 4 of them, and
+/// builds its islands (analysis, factorization) only if the sweeps hand over to ADMM and
+/// Newton (docs/algorithms.md §17); `cadmm_stats.gauss_seidel_sweeps` counts them. Otherwise a
 /// limit that is not reached does not change the solve: it ends with the same answer,
 /// bitwise, as without the limit. Errors: `CADMM_ERR_NULL_POINTER`,
 /// `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).

@@ -81,10 +81,10 @@ impl<const ROWS: usize> RowGroups<ROWS> {
             let mut k = 0;
             while k < len {
                 let b = mass.block_containing(self.reach[from + k]);
-                let (inverse, size) = (mass.inverse_block(b), mass.block(b).len());
+                let size = mass.block(b).len();
                 for d in 0..rows {
                     let at = d * len + k..d * len + k + size;
-                    mul_symmetric(inverse, &a_t[at.clone()], &mut minv_a[at]);
+                    mass.mul_block_inverse(b, &a_t[at.clone()], &mut minv_a[at]);
                 }
                 k += size;
             }
@@ -139,24 +139,5 @@ impl<const ROWS: usize> RowGroups<ROWS> {
             }
             v[i] += sum;
         }
-    }
-}
-
-/// `y = A x` for a symmetric column-major `A` (its columns are its rows), unrolled for a
-/// rigid body's 6 x 6 block.
-fn mul_symmetric(a: &[f64], x: &[f64], y: &mut [f64]) {
-    if let (Ok(x), true) = (<&[f64; 6]>::try_from(x), a.len() == 36) {
-        for (y, row) in y.iter_mut().zip(a.chunks_exact(6)) {
-            *y = row[0] * x[0]
-                + row[1] * x[1]
-                + row[2] * x[2]
-                + row[3] * x[3]
-                + row[4] * x[4]
-                + row[5] * x[5];
-        }
-        return;
-    }
-    for (y, row) in y.iter_mut().zip(a.chunks_exact(x.len())) {
-        *y = row.iter().zip(x).map(|(a, x)| a * x).sum();
     }
 }

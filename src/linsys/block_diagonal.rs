@@ -317,9 +317,20 @@ impl BlockDiagonal {
         }
     }
 
-    /// Block `b`'s inverse from [`BlockDiagonal::invert`], column-major.
-    pub fn inverse_block(&self, b: usize) -> &[f64] {
-        &self.factor[self.offset[b]..self.offset[b + 1]]
+    /// `y = A_b^-1 x` with block `b`'s inverse from [`BlockDiagonal::invert`], `x` and `y`
+    /// over the block's own unknowns.
+    pub fn mul_block_inverse(&self, b: usize, x: &[f64], y: &mut [f64]) {
+        let a = &self.factor[self.offset[b]..self.offset[b + 1]];
+        if x.len() == 6 {
+            block_product::<6>(a, x, y);
+            return;
+        }
+        y.fill(0.0);
+        for (column, &xj) in a.chunks_exact(x.len()).zip(x) {
+            for (yi, aij) in y.iter_mut().zip(column) {
+                *yi += aij * xj;
+            }
+        }
     }
 
     /// `y = A x` with the matrices taken (`x` and `y` over all unknowns).

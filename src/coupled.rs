@@ -76,11 +76,12 @@ impl CoupledSolver {
         settings.validate()?;
         let mut resolved = settings.resolved();
         let rho0 = initial_rho(resolved.initial_rho, &problem)?;
-        let l = 3 * problem.n_contacts();
-        let joints = match &problem {
-            Problem::Global(g) => g.n_joints(),
-            Problem::Local(_) => 0,
+        let (joints, bounded) = match &problem {
+            Problem::Global(g) => (g.n_joints(), g.bounded_rows().len()),
+            Problem::Local(_) => (0, 0),
         };
+        // The constraint space: the contacts' rows, then the bounded joint rows'.
+        let l = 3 * problem.n_contacts() + bounded;
         let small = problem.n_velocities() + l + joints <= DENSE_MAX;
         // The global Newton step is solved on the velocities and joints (reduced), the
         // local one on the contact rows.
@@ -91,6 +92,10 @@ impl CoupledSolver {
         let mut form = contact_form(problem, settings.linear_solver)?;
         if form.matrix_free() && resolved.newton == NewtonUse::Polish {
             // A Newton phase would factorize what the matrix-free backend avoids.
+            resolved.newton = NewtonUse::Off;
+        }
+        if bounded > 0 {
+            // The Newton phases know equality joint rows only: ADMM solves the bounded ones.
             resolved.newton = NewtonUse::Off;
         }
         let newton_first =

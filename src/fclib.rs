@@ -341,6 +341,18 @@ fn write_matrix(parent: &Group, name: &str, a: &CscMatrix, path: &Path) -> Resul
 /// Writes a problem as an FCLib file (matrices in compressed-column form), replacing `path`.
 pub fn write_problem(path: impl AsRef<Path>, problem: &Problem) -> Result<(), Error> {
     let path = path.as_ref();
+    if let Problem::Global(GlobalProblem {
+        joints: Some(j), ..
+    }) = problem
+    {
+        if j.beyond_equalities() {
+            return Err(Error::Unsupported(
+                "write_fclib: the FCLib format holds equality joint rows only, and this \
+                 problem has joint bounds or compliance"
+                    .into(),
+            ));
+        }
+    }
     let file = File::create(path).map_err(|e| io(path, e))?;
     match problem {
         Problem::Global(p) => {

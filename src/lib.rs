@@ -23,6 +23,7 @@
 // measure in [`measure`], FCLib I/O in [`fclib`] and the C API in [`ffi`]. Everything else is
 // internal and may change between versions.
 pub mod admm;
+mod bounded_rows;
 mod budgeted;
 mod certificate;
 mod cone;

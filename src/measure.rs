@@ -4,8 +4,11 @@
 //!
 //! global: `||-M v + H r + G lambda + f|| / max(||f||, ||M v||, ||H r + G lambda||)
 //!          + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||)
-//!          + ||G^T v + b|| / max(||G^T v||, ||b||, || |G|^T |diag(M)^-1 f| ||)`,
-//!          `u = H^T v + w` (joint terms only with joints);
+//!          + ||rho_J|| / max(||G^T v||, ||b||, || |G|^T |diag(M)^-1 f| ||, ||lambda_B||)`,
+//!          `u = H^T v + w` (joint terms only with joints), where a joint row's residual
+//!          `rho_J` is its velocity `y = G^T v + b + c lambda` for an equality and the
+//!          natural map `lambda - P_[lo,hi](lambda - y)` for a bounded row, and `lambda_B`
+//!          the bounded rows' multipliers (none: the equalities' measure as it always was);
 //! local:  `||r - P_K(r - (u + Phi(u)))|| / ||q||`, `u = W r + q`.
 //!
 //! A denominator divides whatever its size: the measure does not change when the data
@@ -20,7 +23,7 @@
 
 use crate::cone::{de_saxce, get3, project_cone};
 use crate::csc::dot;
-use crate::problem::{GlobalProblem, LocalProblem, Problem};
+use crate::problem::{GlobalProblem, Joints, LocalProblem, Problem};
 use crate::types::Solution;
 
 /// `num / den`; `num` itself when `den` is zero (then the vectors of both are zero, and
@@ -202,6 +205,8 @@ pub struct MeasureWork {
     hr: Vec<f64>,
     u: Vec<f64>,
     gv: Vec<f64>,
+    /// Least-squares joint multipliers, when none are supplied.
+    ls: Vec<f64>,
     pub(crate) floors: Floors,
     /// The denominators of the last global evaluation.
     pub(crate) scales: Scales,
@@ -268,16 +273,22 @@ pub fn global_error_with(
         if lambda.len() == j.b.len() {
             j.g.mul_vec(1.0, lambda, 1.0, &mut work.hr);
         } else {
-            let ls = least_squares_multipliers(p, &work.mv, &work.hr);
-            j.g.mul_vec(1.0, &ls, 1.0, &mut work.hr);
+            work.ls = least_squares_multipliers(p, &work.mv, &work.hr);
+            j.g.mul_vec(1.0, &work.ls, 1.0, &mut work.hr);
         }
         j.g.mul_t_vec(1.0, v, 0.0, &mut work.gv);
+        let lambda = match lambda.len() == j.b.len() {
+            true => lambda,
+            false => &work.ls,
+        };
         let scale = SumSq::of_slice(&work.gv)
             .norm()
             .max(SumSq::of_slice(&j.b).norm())
-            .max(free_joint_velocity(p, &j.g));
+            .max(free_joint_velocity(p, &j.g))
+            .max(bounded_multipliers(j, lambda));
         let gv = &work.gv;
-        let res = SumSq::of(|| gv.iter().zip(&j.b).map(|(a, b)| a + b)).norm();
+        let res =
+            SumSq::of(|| (0..gv.len()).map(|k| joint_row_residual(j, k, gv[k], lambda[k]))).norm();
         work.scales.joint = scale;
         joint_error = relative(res, scale.max(work.floors.joint));
     }
@@ -292,6 +303,36 @@ pub fn global_error_with(
         mu: &p.mu,
     };
     finite_or_infinite(terms.error(work.floors, &mut work.scales) + joint_error)
+}
+
+/// Row `k`'s residual at `gv = G_k^T v` and its multiplier `lambda`: the row's velocity
+/// `y = gv + b + c lambda` for an equality, the natural map `lambda - P_[lo,hi](lambda - y)`
+/// for a bounded row (zero exactly when `lambda` is inside its bounds with `y = 0`, or at
+/// `lo` with `y >= 0`, or at `hi` with `y <= 0`).
+fn joint_row_residual(j: &Joints, k: usize, gv: f64, lambda: f64) -> f64 {
+    // Without compliance the sum is the equality's residual bit for bit.
+    let c = j.compliance[k];
+    let y = if c == 0.0 {
+        gv + j.b[k]
+    } else {
+        gv + j.b[k] + c * lambda
+    };
+    match j.is_bounded(k) {
+        false => y,
+        true => lambda - (lambda - y).clamp(j.lo[k], j.hi[k]),
+    }
+}
+
+/// `||lambda||` over the bounded rows: the impulse scale of their natural-map residuals
+/// (as `||r||` is the contacts'); zero for a problem of equalities only, whose measure is
+/// then the joint velocities' alone.
+fn bounded_multipliers(j: &Joints, lambda: &[f64]) -> f64 {
+    SumSq::of(|| {
+        (0..lambda.len())
+            .filter(|&k| j.is_bounded(k))
+            .map(|k| lambda[k])
+    })
+    .norm()
 }
 
 /// The velocities the joint rows see under free motion, `|| |G|^T |diag(M)^-1 f| ||`: the

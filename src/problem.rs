@@ -1,18 +1,119 @@
 //! Frictional contact problems in FCLib conventions (normal component first).
 //!
-//! Global form: `M v = H r + G lambda + f`, `G^T v + b = 0`, `u = H^T v + w`.
-//! Local form: `u = W r + q`. Both with `K*_mu ∋ u + Phi(u) ⊥ r ∈ K_mu` per contact.
+//! Global form: `M v = H r + G lambda + f`, `u = H^T v + w`, and per joint row
+//! `lo <= lambda <= hi` against `G^T v + b + c lambda` (an equality, `= 0`, when the bounds
+//! are infinite). Local form: `u = W r + q`. Both with `K*_mu ∋ u + Phi(u) ⊥ r ∈ K_mu` per
+//! contact.
 
 use crate::csc::CscMatrix;
 use crate::types::Error;
 
-/// Bilateral (joint) constraints `G^T v + b = 0` of a global problem.
+/// Joint rows of a global problem: column `k` of `G` with its multiplier `lambda_k`, its
+/// velocity `y_k = G_k^T v + b_k + c_k lambda_k` (`c` the compliance) and its bounds
+/// `lo_k <= lambda_k <= hi_k`. A row whose bounds are both infinite (the default) is an
+/// equality, `y_k = 0` (a bilateral joint); a bounded row holds `y_k = 0` while its
+/// multiplier is inside its bounds and `y_k >= 0` at `lo_k`, `y_k <= 0` at `hi_k` (a
+/// limit is `[0, inf)`, a motor or dry joint friction `[-F h, F h]` with `b` minus the
+/// target velocity).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Joints {
     /// `n x p` joint Jacobian transpose.
     pub g: CscMatrix,
     /// Length-`p` constant term.
     pub b: Vec<f64>,
+    /// Length-`p` lower bounds of the multipliers (`-inf` for none).
+    pub lo: Vec<f64>,
+    /// Length-`p` upper bounds of the multipliers (`+inf` for none).
+    pub hi: Vec<f64>,
+    /// Length-`p` compliances `c >= 0` (velocity per unit impulse; 0 for a rigid row).
+    pub compliance: Vec<f64>,
+}
+
+impl Joints {
+    /// No rows on the velocities of `g` (which has no column).
+    fn none(g: CscMatrix) -> Self {
+        Joints {
+            g,
+            b: Vec::new(),
+            lo: Vec::new(),
+            hi: Vec::new(),
+            compliance: Vec::new(),
+        }
+    }
+
+    /// Whether row `k` has a finite bound (it is then an inequality, not an equality).
+    pub fn is_bounded(&self, k: usize) -> bool {
+        self.lo[k] > f64::NEG_INFINITY || self.hi[k] < f64::INFINITY
+    }
+
+    /// The rows with a finite bound, in order.
+    pub fn bounded_rows(&self) -> Vec<usize> {
+        (0..self.b.len()).filter(|&k| self.is_bounded(k)).collect()
+    }
+
+    /// Whether any row has a bound or a compliance (what the FCLib format cannot hold).
+    pub fn beyond_equalities(&self) -> bool {
+        (0..self.b.len()).any(|k| self.is_bounded(k) || self.compliance[k] != 0.0)
+    }
+
+    /// Checks the sizes and values of the rows' fields for `p` rows.
+    fn validate(&self, n: usize) -> Result<(), Error> {
+        let p = self.g.ncols();
+        check_shape("G", &self.g, n, p)?;
+        check_len("b", &self.b, p)?;
+        check_bounds(&self.lo, &self.hi, p)?;
+        check_compliance(&self.compliance, p)
+    }
+}
+
+/// Bounds of `p` joint rows: `lo <= hi`, neither NaN, `lo < +inf` and `hi > -inf`.
+fn check_bounds(lo: &[f64], hi: &[f64], p: usize) -> Result<(), Error> {
+    for (field, x) in [("lo", lo), ("hi", hi)] {
+        if x.len() != p {
+            return Err(Error::Dimension {
+                field,
+                expected: p,
+                found: x.len(),
+            });
+        }
+    }
+    for k in 0..p {
+        let reason = if lo[k].is_nan() || hi[k].is_nan() {
+            "bound is NaN"
+        } else if lo[k] == f64::INFINITY {
+            "lower bound is +inf"
+        } else if hi[k] == f64::NEG_INFINITY {
+            "upper bound is -inf"
+        } else if lo[k] > hi[k] {
+            "lower bound above upper bound"
+        } else {
+            continue;
+        };
+        let field = if lo[k].is_nan() || lo[k] == f64::INFINITY {
+            "lo"
+        } else {
+            "hi"
+        };
+        return Err(Error::InvalidValue {
+            field,
+            index: k,
+            reason,
+        });
+    }
+    Ok(())
+}
+
+/// Compliances of `p` joint rows: finite and non-negative.
+fn check_compliance(c: &[f64], p: usize) -> Result<(), Error> {
+    check_len("compliance", c, p)?;
+    match c.iter().position(|&x| x < 0.0) {
+        Some(index) => Err(Error::InvalidValue {
+            field: "compliance",
+            index,
+            reason: "compliance is negative",
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Global (velocity) form: mass matrix, contact Jacobian transpose and data.
@@ -176,22 +277,58 @@ impl GlobalProblem {
         check_len("w", &self.w, 3 * nc)?;
         check_mu(&self.mu, nc)?;
         if let Some(j) = &self.joints {
-            check_shape("G", &j.g, n, j.g.ncols())?;
-            check_len("b", &j.b, j.g.ncols())?;
+            j.validate(n)?;
         }
         Ok(())
     }
 
-    /// Adds bilateral constraints `G^T v + b = 0` (`G` is `n x p`).
+    /// Adds bilateral constraints `G^T v + b = 0` (`G` is `n x p`): joint rows without
+    /// bounds or compliance ([`GlobalProblem::with_joint_bounds`] and
+    /// [`GlobalProblem::with_joint_compliance`] add them).
     pub fn with_joints(mut self, g: CscMatrix, b: Vec<f64>) -> Result<Self, Error> {
         check_shape("G", &g, self.n(), g.ncols())?;
         check_len("b", &b, g.ncols())?;
-        self.joints = if g.ncols() == 0 {
+        let p = g.ncols();
+        self.joints = if p == 0 {
             None
         } else {
-            Some(Joints { g, b })
+            Some(Joints {
+                g,
+                b,
+                lo: vec![f64::NEG_INFINITY; p],
+                hi: vec![f64::INFINITY; p],
+                compliance: vec![0.0; p],
+            })
         };
         Ok(self)
+    }
+
+    /// Bounds `lo <= lambda <= hi` on the joint rows' multipliers (`-inf`/`+inf` for none).
+    /// Without joints the bounds must be empty.
+    pub fn with_joint_bounds(mut self, lo: Vec<f64>, hi: Vec<f64>) -> Result<Self, Error> {
+        check_bounds(&lo, &hi, self.n_joints())?;
+        if let Some(j) = &mut self.joints {
+            j.lo = lo;
+            j.hi = hi;
+        }
+        Ok(self)
+    }
+
+    /// Compliances `c >= 0` of the joint rows: row `k` reads `G_k^T v + b_k + c_k lambda_k`.
+    /// Without joints the compliances must be empty.
+    pub fn with_joint_compliance(mut self, c: Vec<f64>) -> Result<Self, Error> {
+        check_compliance(&c, self.n_joints())?;
+        if let Some(j) = &mut self.joints {
+            j.compliance = c;
+        }
+        Ok(self)
+    }
+
+    /// The joint rows with a finite bound (none without joints).
+    pub(crate) fn bounded_rows(&self) -> Vec<usize> {
+        self.joints
+            .as_ref()
+            .map_or_else(Vec::new, Joints::bounded_rows)
     }
 
     /// The joint Jacobian transpose `G`, if the problem has joints.
@@ -226,7 +363,17 @@ impl GlobalProblem {
         check_pattern("H", &self.h, &next.h)?;
         match (self.joint_matrix(), next.joint_matrix()) {
             (None, None) => Ok(()),
-            (Some(a), Some(b)) => check_pattern("G", a, b),
+            (Some(a), Some(b)) => {
+                check_pattern("G", a, b)?;
+                // A bounded row is in the ADMM splitting and an equality in the v-update
+                // system: which is which is part of the system's pattern.
+                match self.bounded_rows() == next.bounded_rows() {
+                    true => Ok(()),
+                    false => Err(Error::PatternChanged {
+                        field: "joint bounds (which rows are bounded)",
+                    }),
+                }
+            }
             (a, b) => Err(Error::Dimension {
                 field: "G",
                 expected: a.map_or(0, CscMatrix::ncols),
@@ -422,15 +569,6 @@ impl Problem {
             })
             .collect();
         if globals.len() == parts.len() && !parts.is_empty() {
-            let with_joints = globals.iter().any(|g| g.joints.is_some());
-            let empty = |n: usize| CscMatrix::new("G", n, 0, vec![0], vec![], vec![]);
-            let joints = globals
-                .iter()
-                .map(|g| match &g.joints {
-                    Some(j) => Ok((j.g.clone(), j.b.clone())),
-                    None => empty(g.n()).map(|e| (e, Vec::new())),
-                })
-                .collect::<Result<Vec<_>, Error>>()?;
             let p = GlobalProblem::new(
                 stack("M", globals.iter().map(|g| &g.m))?,
                 stack("H", globals.iter().map(|g| &g.h))?,
@@ -438,12 +576,26 @@ impl Problem {
                 concat(&mut globals.iter().map(|g| &g.w)),
                 concat(&mut globals.iter().map(|g| &g.mu)),
             )?;
-            if !with_joints {
+            if !globals.iter().any(|g| g.joints.is_some()) {
                 return Ok(Problem::Global(p));
             }
-            let g = stack("G", joints.iter().map(|j| &j.0))?;
-            let b = concat(&mut joints.iter().map(|j| &j.1));
-            return Ok(Problem::Global(p.with_joints(g, b)?));
+            let empty = |n: usize| CscMatrix::new("G", n, 0, vec![0], vec![], vec![]);
+            let joints = globals
+                .iter()
+                .map(|g| match &g.joints {
+                    Some(j) => Ok(j.clone()),
+                    None => empty(g.n()).map(Joints::none),
+                })
+                .collect::<Result<Vec<_>, Error>>()?;
+            let g = stack("G", joints.iter().map(|j| &j.g))?;
+            let p = p
+                .with_joints(g, concat(&mut joints.iter().map(|j| &j.b)))?
+                .with_joint_bounds(
+                    concat(&mut joints.iter().map(|j| &j.lo)),
+                    concat(&mut joints.iter().map(|j| &j.hi)),
+                )?
+                .with_joint_compliance(concat(&mut joints.iter().map(|j| &j.compliance)))?;
+            return Ok(Problem::Global(p));
         }
         let locals: Vec<&LocalProblem> = parts
             .iter()

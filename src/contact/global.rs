@@ -1,4 +1,6 @@
-//! Global form: `x = v`, `y = u~`, `A = H^T`, `c = -w - Phi(s)`, g = indicator of `K*`.
+//! Global form: `x = v`, `y = u~`, `A = H^T`, `c = -w - Phi(s)`, g = indicator of `K*`;
+//! bounded joint rows add rows to the constraint space after the contacts'
+//! ([`BoundedRows`]).
 //!
 //! v-update: `(M + rho H H^T) v = f + rho H (u~ + c - zeta)`; with joints the
 //! quasi-definite system `[[M + rho H H^T, G], [G^T, -delta I]] [v; -lambda] = [.; -b]`
@@ -12,6 +14,7 @@ use super::form::{
     rows_missing, ContactForm,
 };
 use crate::admm::{EngineState, Splitting};
+use crate::bounded_rows::BoundedRows;
 use crate::certificate::run_off;
 use crate::cone::{get3, project_dual_cone, set3};
 use crate::linsys::velocity::{
@@ -54,6 +57,10 @@ pub(crate) struct GlobalSplitting<S: VelocitySystem> {
     last_error: f64,
     /// The running solve's wall-clock limit, which also stops a conjugate-gradient solve.
     deadline: Option<Instant>,
+    /// The bounded joint rows, the constraint space's rows after the contacts'.
+    bounded: BoundedRows,
+    /// The current penalty, which the bounded rows' proximal step reads.
+    rho: f64,
     /// New values or screened rows not yet in the v-update system: the next `set_rho`
     /// takes them (through the assembly maps, no sorting), so that a solve its warm start
     /// already ends (an engine's resting scene), or that a first Newton phase ends,
@@ -78,6 +85,8 @@ impl<S: VelocitySystem> GlobalSplitting<S> {
         [norm_mu, h_fro]: [f64; 2],
     ) -> Self {
         let m = in_pattern.len();
+        let nc = p.mu().len();
+        let bounded = p.bounded();
         let mut split = Self {
             system,
             sol: vec![0.0; dim],
@@ -87,12 +96,14 @@ impl<S: VelocitySystem> GlobalSplitting<S> {
             work_m: vec![0.0; m],
             r: vec![0.0; m],
             active: in_pattern.clone(),
-            screened: vec![false; m / 3],
+            screened: vec![false; nc],
             in_pattern,
             norm_mu,
             h_fro,
             last_error: f64::INFINITY,
             deadline: None,
+            bounded,
+            rho: 1.0,
             stale: false,
             newton: None,
             p,
@@ -132,6 +143,10 @@ impl<S: VelocitySystem> GlobalSplitting<S> {
         for ((c, w), s) in self.c.iter_mut().zip(self.p.w()).zip(&self.phi) {
             *c = -w - s;
         }
+        let m = self.p.w().len();
+        for (c, b) in self.c[m..].iter_mut().zip(&self.bounded.bias) {
+            *c = -b;
+        }
     }
 
     /// A start from nothing: no impulse, no velocity, the initial shift, no contact
@@ -150,10 +165,11 @@ impl<S: VelocitySystem> GlobalSplitting<S> {
     /// `zeta = -r / rho`, and with `v` the shift and `u~ = P_K*(H^T v + w + Phi(u))` taken
     /// from the same `u` (kept in `self.u`).
     pub(crate) fn start_warm(&mut self, r: &[f64], v: Option<&[f64]>, state: &mut EngineState) {
-        // r = -rho zeta at a solution.
+        // r = -rho zeta at a solution; the bounded joint rows start from no impulse.
         for (z, ri) in state.zeta.iter_mut().zip(r) {
             *z = -ri / state.rho;
         }
+        state.zeta[r.len()..].fill(0.0);
         state.y.fill(0.0);
         let Some(v) = v else {
             self.reset_shift();
@@ -222,6 +238,7 @@ impl<S: VelocitySystem> Splitting for GlobalSplitting<S> {
 
     fn set_rho(&mut self, rho: f64) -> Result<(), Error> {
         let changed = std::mem::take(&mut self.stale);
+        self.rho = rho;
         self.system.set_rho(&self.p, rho, &self.active, changed)
     }
 
@@ -247,6 +264,11 @@ impl<S: VelocitySystem> Splitting for GlobalSplitting<S> {
                 false => project_dual_cone(input, mu),
             };
             set3(y, i, out);
+        }
+        let m = self.p.w().len();
+        for q in 0..self.bounded.len() {
+            let a = ax[m + q] - self.c[m + q] + zeta[m + q];
+            y[m + q] = self.bounded.prox(q, a, self.rho);
         }
     }
 
@@ -316,7 +338,8 @@ impl ProblemSplitting {
     /// Analyses and factorizes `M` (to check it is positive definite) and prepares the
     /// v-update system.
     pub(crate) fn new(p: GlobalProblem, backend: LinearSolver) -> Result<Self, Error> {
-        let active = active_rows(&p.mu);
+        let mut active = active_rows(&p.mu);
+        active.resize(p.w.len() + p.bounded_rows().len(), 1.0);
         let system = problem_system(&p, &active, backend)?;
         let dim = p.n() + p.n_joints();
         let norms = shift_norms(&p);
@@ -339,6 +362,7 @@ impl ProblemSplitting {
         }
         self.system.own().take_values(&self.p)?;
         self.stale = true;
+        self.bounded = BoundedRows::of(&self.p);
         [self.norm_mu, self.h_fro] = shift_norms(&self.p);
         self.reset_shift();
         if let Some(newton) = &mut self.newton {
@@ -444,15 +468,18 @@ impl ContactForm for ProblemSplitting {
     }
 
     fn write_solution(&self, state: &EngineState, out: &mut Solution) {
-        let n = self.p.n();
+        let (n, m) = (self.p.n(), self.p.w.len());
         out.r.clear();
-        out.r.extend(state.zeta.iter().map(|z| -state.rho * z));
+        out.r.extend(state.zeta[..m].iter().map(|z| -state.rho * z));
         out.v.clear();
         out.v.extend_from_slice(&self.sol[..n]);
         out.u.clone_from(&self.p.w);
         self.p.h.mul_t_vec(1.0, &out.v, 1.0, &mut out.u);
         out.lambda.clear();
         out.lambda.extend(self.sol[n..].iter().map(|x| -x));
+        for (q, &k) in self.bounded.rows.iter().enumerate() {
+            out.lambda[k] = -state.rho * state.zeta[m + q];
+        }
     }
 
     fn set_measure_floors(&mut self, floors: Floors) {

@@ -129,6 +129,85 @@ pub unsafe extern "C" fn cadmm_problem_set_joints(
     })
 }
 
+/// The global problem a joint-row setter changes, or why not: a local problem has none.
+fn joint_rows_of<'a>(problem: &'a mut Problem, what: &str) -> FfiResult<&'a mut GlobalProblem> {
+    match problem {
+        Problem::Global(global) => Ok(global),
+        Problem::Local(_) => Err(Failure::new(
+            CADMM_ERR_UNSUPPORTED,
+            format!("{what} apply to the joint rows of global problems only"),
+        )),
+    }
+}
+
+/// Bounds the multipliers of the joint rows given to `cadmm_problem_set_joints`:
+/// `lo[k] <= lambda_k <= hi[k]`, replacing any earlier bounds.
+///
+/// Row `k`'s velocity is `y_k = G_k^T v + b_k + c_k lambda_k` (`c` the compliance, see
+/// `cadmm_problem_set_joint_compliance`). A row with both bounds infinite (`-INFINITY`,
+/// `INFINITY`, which every row has until this call) is an equality, `y_k = 0`: a bilateral
+/// joint. A bounded row holds `y_k = 0` while its multiplier is strictly inside its
+/// bounds, `y_k >= 0` at `lo[k]` and `y_k <= 0` at `hi[k]`. `lambda` is an impulse (force
+/// times the time step) acting along `G`'s column, `y` a velocity, `b` a velocity (a bias
+/// or minus a motor's target velocity). Examples: a joint limit is `[0, INFINITY)` with
+/// `b` the position error over the time step (so the row reads "do not close the gap
+/// faster than it is"); a motor or dry joint friction is `[-F h, F h]` with `b` minus the
+/// target velocity (0 for friction).
+///
+/// `lo` and `hi` have `p` entries each (`p` the number of joint rows; 0 without joints,
+/// when both may be NULL). Infinite bounds are allowed; NaN, `lo[k] > hi[k]`,
+/// `lo[k] = +INFINITY` and `hi[k] = -INFINITY` are not. On failure the problem is unchanged.
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (naming `lo` or `hi` and
+/// the row), `CADMM_ERR_UNSUPPORTED` (a local problem). A problem with bounded rows cannot
+/// be written as an FCLib file (`cadmm_problem_write_fclib` refuses it).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_set_joint_bounds(
+    p: *mut cadmm_problem,
+    lo: *const f64,
+    hi: *const f64,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("p", p.cast_const())?;
+        // SAFETY: a live handle by contract, used by this thread only.
+        let global = joint_rows_of(unsafe { &mut (*p).inner }, "bounds")?;
+        let np = global.n_joints();
+        // SAFETY: lengths from the problem, as documented above.
+        let lo = unsafe { input("lo", lo, np)? }.to_vec();
+        let hi = unsafe { input("hi", hi, np)? }.to_vec();
+        *global = global.clone().with_joint_bounds(lo, hi)?;
+        Ok(())
+    })
+}
+
+/// Sets the compliance `c[k] >= 0` of each joint row, replacing any earlier one: row `k`
+/// reads `G_k^T v + b_k + c_k lambda_k` (a velocity per unit impulse; 0, every row's
+/// value until this call, is a rigid row). A spring of stiffness `k` and damping `d`
+/// integrated implicitly over a step `h` is the equality row with `c = 1 / (h (h k + d))`
+/// and `b = x k / (h k + d)`, `x` its extension (Bullet's and ODE's CFM is `c / h`, their
+/// ERP `h k / (h k + d)`).
+///
+/// `c` has `p` entries (`p` the number of joint rows; 0 without joints, when it may be
+/// NULL), finite and non-negative. On failure the problem is unchanged. Errors:
+/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (naming the row),
+/// `CADMM_ERR_UNSUPPORTED` (a local problem). A problem with compliance cannot be written
+/// as an FCLib file.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_set_joint_compliance(
+    p: *mut cadmm_problem,
+    c: *const f64,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("p", p.cast_const())?;
+        // SAFETY: a live handle by contract, used by this thread only.
+        let global = joint_rows_of(unsafe { &mut (*p).inner }, "compliances")?;
+        let np = global.n_joints();
+        // SAFETY: lengths from the problem, as documented above.
+        let c = unsafe { input("c", c, np)? }.to_vec();
+        *global = global.clone().with_joint_compliance(c)?;
+        Ok(())
+    })
+}
+
 /// Builds a local problem `u = W r + q` with `n_contacts` contacts.
 ///
 /// `W` (the Delassus matrix) is `3 n_contacts x 3 n_contacts`, both triangles, possibly
@@ -238,8 +317,10 @@ fn no_fclib(path: &std::path::Path) -> Failure {
 /// `u` is recomputed as `W r + q`. `u` is accepted for symmetry with
 /// `cadmm_solver_get_solution` and never read (may be NULL). For a global problem with
 /// joints, the multipliers are recomputed as the least-squares solution of
-/// `G lambda = M v - H r - f` (the best ones for this `r` and `v`), and the joint residual
-/// `||G^T v + b||` is part of the error (docs/algorithms.md §3.2). A non-finite `r` or `v` gives an infinite error (not a failure). `*error` is written on
+/// `G lambda = M v - H r - f` (the best ones for this `r` and `v`, regardless of any joint
+/// bounds; `cadmm_problem_error_with_multipliers` takes them instead), and the joint rows'
+/// residual is part of the error (docs/algorithms.md §3.2). A non-finite `r` or `v` gives
+/// an infinite error (not a failure). `*error` is written on
 /// success only. Errors: `CADMM_ERR_NULL_POINTER`.
 #[no_mangle]
 pub unsafe extern "C" fn cadmm_problem_error(
@@ -262,6 +343,43 @@ pub unsafe extern "C" fn cadmm_problem_error(
             Problem::Local(_) => &[],
         };
         let e = problem_error(problem, r, v, &[]);
+        // SAFETY: checked non-NULL and aligned.
+        unsafe { error.write(e) };
+        Ok(())
+    })
+}
+
+/// `cadmm_problem_error` with the joint multipliers given: `lambda` has `p` entries (the
+/// number of joint rows; 0 without joints, when it may be NULL), as
+/// `cadmm_solver_get_joint_multipliers` returns them. A problem with bounded joint rows is
+/// measured best this way: the least-squares multipliers `cadmm_problem_error` computes
+/// know nothing of the bounds. A non-finite `r`, `v` or `lambda` gives an infinite error.
+/// Errors: `CADMM_ERR_NULL_POINTER`.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_error_with_multipliers(
+    p: *const cadmm_problem,
+    r: *const f64,
+    v: *const f64,
+    lambda: *const f64,
+    error: *mut f64,
+) -> cadmm_result {
+    guard(|| {
+        // SAFETY: a live handle by contract.
+        let problem = unsafe { problem_ref("p", p)? };
+        check_ptr("error", error.cast_const())?;
+        let l = contact_len(problem.n_contacts())?;
+        // SAFETY (reads): lengths from the problem, as documented above.
+        let r = unsafe { input("r", r, l)? };
+        let (v, lambda) = match problem {
+            Problem::Global(g) => unsafe {
+                (
+                    input("v", v, g.n())?,
+                    input("lambda", lambda, g.n_joints())?,
+                )
+            },
+            Problem::Local(_) => (&[][..], &[][..]),
+        };
+        let e = problem_error(problem, r, v, lambda);
         // SAFETY: checked non-NULL and aligned.
         unsafe { error.write(e) };
         Ok(())

@@ -116,7 +116,7 @@ impl GaussSeidel {
         if let (Some(rows), Some(j)) = (&mut self.joints, &p.joints) {
             rows.take_values(&j.g, &self.mass, &mut self.position);
             for (k, gain) in self.joint_gain.iter_mut().enumerate() {
-                let d = rows.delassus(k)[0];
+                let d = rows.delassus(k)[0] + j.compliance[k];
                 *gain = if d > 0.0 { 1.0 / d } else { 0.0 };
             }
         }
@@ -224,9 +224,15 @@ impl GaussSeidel {
         let (Some(rows), Some(j)) = (&self.joints, &p.joints) else {
             return;
         };
-        // Each row's multiplier makes its residual `G_j^T v + b_j` zero, the others held.
+        // Each row's multiplier makes its velocity `G_k^T v + b_k + c_k lambda_k` zero, the
+        // others held, then is clamped into its bounds (infinite for an equality).
         for (k, &gain) in self.joint_gain.iter().enumerate() {
-            let step = -gain * (rows.apply(k, &self.v)[0] + j.b[k]);
+            let lambda = self.lambda[k];
+            let y = rows.apply(k, &self.v)[0] + j.b[k] + j.compliance[k] * lambda;
+            let step = match j.is_bounded(k) {
+                true => (lambda - gain * y).clamp(j.lo[k], j.hi[k]) - lambda,
+                false => -gain * y,
+            };
             if step != 0.0 {
                 self.lambda[k] += step;
                 rows.add(k, [step], &mut self.v);

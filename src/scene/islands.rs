@@ -245,8 +245,11 @@ impl Part {
         self.h_entries = h_entries;
         if let Some(j) = &p.joints {
             let (g, g_entries) = sub_matrix("G", &j.g, nv, self.joints.iter().copied(), row_of)?;
-            let b = pick(&j.b, self.joints.iter().copied());
-            sub = sub.with_joints(g, b)?;
+            let rows = || self.joints.iter().copied();
+            sub = sub
+                .with_joints(g, pick(&j.b, rows()))?
+                .with_joint_bounds(pick(&j.lo, rows()), pick(&j.hi, rows()))?
+                .with_joint_compliance(pick(&j.compliance, rows()))?;
             self.g_entries = g_entries;
         }
         Ok(sub)

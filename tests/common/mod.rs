@@ -112,7 +112,9 @@ fn rel(num: f64, den: f64) -> f64 {
 
 /// docs/algorithms.md §3, global form, dense and independent of the library. With joints,
 /// `lambda` (their multipliers, required) enters the equation residual and the joint
-/// residual `||G^T v + b||` is added.
+/// rows' residual is added: `G^T v + b + c lambda` for an equality, the natural map
+/// `lambda - clamp(lambda - y, lo, hi)` for a bounded row, whose multipliers also join the
+/// denominator.
 pub fn global_error(p: &GlobalProblem, r: &[f64], v: &[f64], lambda: &[f64]) -> f64 {
     let (m, h) = (dense(&p.m), dense(&p.h));
     let mv = matvec(&m, v);
@@ -125,12 +127,29 @@ pub fn global_error(p: &GlobalProblem, r: &[f64], v: &[f64], lambda: &[f64]) -> 
             *a += b;
         }
         let gv = matvec_t(&g, v);
-        let res: Vec<f64> = gv.iter().zip(&j.b).map(|(a, b)| a + b).collect();
+        let res: Vec<f64> = (0..j.b.len())
+            .map(|k| {
+                let y = gv[k] + j.b[k] + j.compliance[k] * lambda[k];
+                let bounded = j.lo[k].is_finite() || j.hi[k].is_finite();
+                match bounded {
+                    true => lambda[k] - (lambda[k] - y).max(j.lo[k]).min(j.hi[k]),
+                    false => y,
+                }
+            })
+            .collect();
+        let bounded: Vec<f64> = (0..j.b.len())
+            .filter(|&k| j.lo[k].is_finite() || j.hi[k].is_finite())
+            .map(|k| lambda[k])
+            .collect();
         // The velocities the joint rows see under free motion: |G|^T |diag(M)^-1 f|.
         let free: Vec<f64> = (0..j.b.len())
             .map(|k| (0..p.n()).map(|i| (g[i][k] * p.f[i] / m[i][i]).abs()).sum())
             .collect();
-        joint = rel(norm(&res), norm(&gv).max(norm(&j.b)).max(norm(&free)));
+        let scale = norm(&gv)
+            .max(norm(&j.b))
+            .max(norm(&free))
+            .max(norm(&bounded));
+        joint = rel(norm(&res), scale);
     }
     let eq: Vec<f64> = (0..mv.len()).map(|i| -mv[i] + hr[i] + p.f[i]).collect();
     let e1 = joint + rel(norm(&eq), norm(&p.f).max(norm(&mv)).max(norm(&hr)));

@@ -1,7 +1,11 @@
 //! The factorized v-update system: `M + rho H D H^T` assembled once (new values scattered
 //! through the assembly maps), or with joints the quasi-definite
-//! `[[M + rho H D H^T, G], [G^T, -delta I]]`, corrected by one step of iterative
-//! refinement; dense or sparse ([`Factor`]).
+//! `[[M + rho H D H^T, G_E, rho G_B], [G_E^T, -(C + delta I), 0], [rho G_B^T, 0, -rho I]]`
+//! over the velocities, the equality rows (`C` their compliances; `delta` corrected by one
+//! step of iterative refinement) and the bounded rows, whose unknown is
+//! `mu = G_B^T v - t_B / rho`: eliminating it leaves `M + rho (H D H^T + G_B G_B^T)`, the
+//! bounded rows' share of the x-step's quadratic (docs/algorithms.md §4.2). Dense or sparse
+//! ([`Factor`]).
 
 use super::own_problem::OwnProblem;
 use super::system::{Accuracy, ProblemSystem, VelocitySystem};
@@ -22,6 +26,8 @@ pub(crate) struct FactorizedSystem {
     /// column product's scatter); `None` past 32-bit indices.
     h_rows: Option<RowMajor>,
     pub(super) own: OwnProblem,
+    /// The joint rows with a finite bound (columns of `G`), in the splitting's order.
+    bounded: Vec<usize>,
     rhs: Vec<f64>,
     resid: Vec<f64>,
     work_n: Vec<f64>,
@@ -38,6 +44,7 @@ impl FactorizedSystem {
             gram,
             h_rows: RowMajor::fits(&p.h).then(|| RowMajor::new(&p.h)),
             own,
+            bounded: p.bounded_rows(),
             rhs: vec![0.0; dim],
             resid: vec![0.0; dim],
             work_n: vec![0.0; p.n()],
@@ -53,16 +60,36 @@ impl FactorizedSystem {
     }
 }
 
-/// The constant part of the v-update system, in a fixed order: M, then for each joint
-/// entry `G` and `G^T`, then the joint regularization.
+/// The constant part of the v-update system, in a fixed order: M, then for each entry of
+/// an equality row of `G`, `G` and `G^T`, then the equality rows' compliance and
+/// regularization.
 fn base_triplets(p: &GlobalProblem) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
     let n = p.n();
     let joints = p.joints.iter().flat_map(move |j| {
-        let g = triplets(&j.g).flat_map(move |(i, k, v)| [(i, n + k, v), (n + k, i, v)]);
-        let reg = (0..j.g.ncols()).map(move |k| (n + k, n + k, -JOINT_DELTA));
+        let g = triplets(&j.g)
+            .filter(|&(_, k, _)| !j.is_bounded(k))
+            .flat_map(move |(i, k, v)| [(i, n + k, v), (n + k, i, v)]);
+        let reg = (0..j.g.ncols())
+            .filter(|&k| !j.is_bounded(k))
+            .map(move |k| (n + k, n + k, -(j.compliance[k] + JOINT_DELTA)));
         g.chain(reg)
     });
     triplets(&p.m).chain(joints)
+}
+
+/// The bounded rows' part of the system's slope (the coefficient of rho), in a fixed
+/// order: `G_B` and `G_B^T` entry by entry, then `-I` on their diagonal.
+fn bounded_triplets(p: &GlobalProblem) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+    let n = p.n();
+    p.joints.iter().flat_map(move |j| {
+        let g = triplets(&j.g)
+            .filter(|&(_, k, _)| j.is_bounded(k))
+            .flat_map(move |(i, k, v)| [(i, n + k, v), (n + k, i, v)]);
+        let diagonal = (0..j.g.ncols())
+            .filter(|&k| j.is_bounded(k))
+            .map(move |k| (n + k, n + k, -1.0));
+        g.chain(diagonal)
+    })
 }
 
 /// `M + rho H H^T`, or the joint system around it: `[[M + rho H H^T, G], [G^T, -delta I]]`.
@@ -76,8 +103,8 @@ fn system_matrix(
     let np = p.n_joints();
     let symmetric = p.m.is_symmetric();
     let gram = GramProduct::new(&p.h, active, symmetric);
-    let (matrix, assembly) =
-        ParamMatrix::from_triplets(n + np, base_triplets(p), gram.triplets(), symmetric);
+    let slope = gram.triplets().chain(bounded_triplets(p));
+    let (matrix, assembly) = ParamMatrix::from_triplets(n + np, base_triplets(p), slope, symmetric);
     let kind = match (symmetric, np) {
         (true, 0) => FactorKind::Cholesky,
         (true, _) => FactorKind::QuasiDefinite { n_positive: n },
@@ -101,8 +128,9 @@ impl VelocitySystem for FactorizedSystem {
                 rows.take_values(&p.h);
             }
             self.gram.recompute(&p.h, active);
+            let slope = self.gram.triplets().chain(bounded_triplets(p));
             self.factor
-                .reassemble(&self.assembly, base_triplets(p), self.gram.triplets());
+                .reassemble(&self.assembly, base_triplets(p), slope);
         }
         self.factor.set_rho(rho)
     }
@@ -115,23 +143,29 @@ impl VelocitySystem for FactorizedSystem {
         ax: &mut [f64],
         _accuracy: Accuracy,
     ) {
-        let n = p.n();
+        let (n, m) = (p.n(), p.w.len());
         let mut rhs = std::mem::take(&mut self.rhs);
         rhs[..n].copy_from_slice(&p.f);
-        self.h_times(p, t, 1.0, &mut rhs[..n]);
+        self.h_times(p, &t[..m], 1.0, &mut rhs[..n]);
         if let Some(j) = &p.joints {
             for (r, b) in rhs[n..].iter_mut().zip(&j.b) {
                 *r = -b;
             }
+            for (q, &k) in self.bounded.iter().enumerate() {
+                rhs[n + k] = t[m + q];
+            }
         }
         sol.copy_from_slice(&rhs);
         self.factor.solve_in_place(sol);
-        if p.joints.is_some() {
-            // One refinement step against the unregularized system.
+        if let Some(j) = &p.joints {
+            // One refinement step against the unregularized system (the bounded rows
+            // carry no regularization).
             let resid = &mut self.resid;
             self.factor.mul_vec(sol, resid);
-            for i in n..resid.len() {
-                resid[i] += JOINT_DELTA * sol[i];
+            for k in 0..j.b.len() {
+                if !j.is_bounded(k) {
+                    resid[n + k] += JOINT_DELTA * sol[n + k];
+                }
             }
             for i in 0..resid.len() {
                 resid[i] = rhs[i] - resid[i];
@@ -142,16 +176,30 @@ impl VelocitySystem for FactorizedSystem {
             }
         }
         self.rhs = rhs;
-        p.h.mul_t_vec(1.0, &sol[..n], 0.0, ax);
+        self.h_t_mul(p, &sol[..n], ax);
     }
 
     fn h_t_mul(&mut self, p: &GlobalProblem, v: &[f64], out: &mut [f64]) {
-        p.h.mul_t_vec(1.0, v, 0.0, out);
+        let m = p.w.len();
+        p.h.mul_t_vec(1.0, v, 0.0, &mut out[..m]);
+        if let Some(j) = &p.joints {
+            for (q, &k) in self.bounded.iter().enumerate() {
+                out[m + q] = j.g.col(k).map(|(i, x)| x * v[i]).sum();
+            }
+        }
     }
 
     fn h_norm(&mut self, p: &GlobalProblem, t: &[f64]) -> f64 {
+        let m = p.w.len();
         let mut hd = std::mem::take(&mut self.work_n);
-        self.h_times(p, t, 0.0, &mut hd);
+        self.h_times(p, &t[..m], 0.0, &mut hd);
+        if let Some(j) = &p.joints {
+            for (q, &k) in self.bounded.iter().enumerate() {
+                for (i, x) in j.g.col(k) {
+                    hd[i] += x * t[m + q];
+                }
+            }
+        }
         let norm = norm2(&hd);
         self.work_n = hd;
         norm

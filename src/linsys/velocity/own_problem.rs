@@ -16,6 +16,8 @@ pub(crate) struct OwnProblem {
     m_mirror: Option<Vec<usize>>,
     measure: MeasureWork,
     lambda: Vec<f64>,
+    /// The joint rows with a finite bound: their multipliers come with the impulses.
+    bounded: Vec<usize>,
 }
 
 impl OwnProblem {
@@ -27,6 +29,7 @@ impl OwnProblem {
             m_mirror: p.m.is_symmetric().then(|| p.m.mirror_map()),
             measure: MeasureWork::global(p),
             lambda: vec![0.0; p.n_joints()],
+            bounded: p.bounded_rows(),
         })
     }
 
@@ -70,13 +73,17 @@ impl OwnProblem {
         self.measure.floors = floors;
     }
 
-    /// The error measure of `r` and `sol` (velocities, then `-lambda`).
+    /// The error measure of `r` (the impulses, then the bounded joint rows' multipliers)
+    /// and `sol` (velocities, then `-lambda` of the equality rows).
     pub(super) fn measure(&mut self, p: &GlobalProblem, r: &[f64], sol: &[f64]) -> f64 {
-        let n = p.n();
+        let (n, m) = (p.n(), p.w.len());
         for (l, x) in self.lambda.iter_mut().zip(&sol[n..]) {
             *l = -x;
         }
-        global_error_with(p, r, &sol[..n], &self.lambda, &mut self.measure)
+        for (q, &k) in self.bounded.iter().enumerate() {
+            self.lambda[k] = r[m + q];
+        }
+        global_error_with(p, &r[..m], &sol[..n], &self.lambda, &mut self.measure)
     }
 
     /// The equation denominator of the last measure.

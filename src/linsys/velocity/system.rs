@@ -2,6 +2,7 @@
 //! adds to it ([`ProblemSystem`]).
 
 use super::own_problem::OwnProblem;
+use crate::bounded_rows::BoundedRows;
 use crate::linsys::PcgStop;
 use crate::problem::GlobalProblem;
 use crate::settings::LinearSolver;
@@ -19,6 +20,11 @@ pub(crate) trait ContactData {
     fn w(&self) -> &[f64];
     /// Friction coefficients, 1 per contact.
     fn mu(&self) -> &[f64];
+    /// The joint rows with a finite bound, which the splitting holds after the contacts'
+    /// rows (none by default: the system then has none either).
+    fn bounded(&self) -> BoundedRows {
+        BoundedRows::default()
+    }
 }
 
 impl ContactData for GlobalProblem {
@@ -28,6 +34,10 @@ impl ContactData for GlobalProblem {
 
     fn mu(&self) -> &[f64] {
         &self.mu
+    }
+
+    fn bounded(&self) -> BoundedRows {
+        BoundedRows::of(self)
     }
 }
 
@@ -55,8 +65,9 @@ pub(crate) trait VelocitySystem {
         changed: bool,
     ) -> Result<(), Error>;
 
-    /// The x-step: `sol` (velocities, then `-lambda` with joints) from `f + H t` and the
-    /// joints' `-b`, and `ax = H^T v`. `sol` holds the last iterate, which an inexact
+    /// The x-step: `sol` (velocities, then one entry per joint row) from `f + H t` and the
+    /// joints' `-b`, and `ax = H^T v`; with bounded joint rows, `t` and `ax` go on past the
+    /// contacts' rows with those rows' (`G_k^T v` in `ax`). `sol` holds the last iterate, which an inexact
     /// backend starts from.
     fn x_step(
         &mut self,
@@ -81,7 +92,8 @@ pub(crate) trait VelocitySystem {
     /// `||H t||` (over every process).
     fn h_norm(&mut self, p: &Self::Data, t: &[f64]) -> f64;
 
-    /// The error measure (docs/algorithms.md §3) at impulses `r` and the iterate `sol`
+    /// The error measure (docs/algorithms.md §3) at impulses `r` (then the bounded joint
+    /// rows' multipliers) and the iterate `sol`
     /// (over every process; infinite when some vector is not finite).
     fn measure(&mut self, p: &Self::Data, r: &[f64], sol: &[f64]) -> f64;
 

@@ -1,0 +1,505 @@
+//! Bounded and compliant joint rows on scenes with closed forms: one rigid body (six
+//! velocities, `M = diag(m, m, m, I, I, I)`, no contact) held by equality rows (a hinge
+//! about z at a pivot, or a slider along y) plus the row under test. Every step's answer
+//! is judged by the tests' own copy of the measure (`common::global_error`), and each
+//! check comes with a negative control: a scene that breaks the law the check states,
+//! which the check must reject with its message.
+
+mod common;
+
+use cadmm::{CscMatrix, GlobalProblem, Problem, Settings, Solver, Status};
+use std::f64::consts::PI;
+
+const G: f64 = 9.81;
+const TOL: f64 = 1e-10;
+const INF: f64 = f64::INFINITY;
+
+/// One joint row: its column of `G` (6 entries), `b`, bounds and compliance.
+#[derive(Clone, Copy)]
+struct Row {
+    col: [f64; 6],
+    b: f64,
+    lo: f64,
+    hi: f64,
+    c: f64,
+}
+
+impl Row {
+    fn equality(col: [f64; 6]) -> Self {
+        Row {
+            col,
+            b: 0.0,
+            lo: -INF,
+            hi: INF,
+            c: 0.0,
+        }
+    }
+}
+
+/// `e_k` in the six velocities.
+fn unit(k: usize) -> [f64; 6] {
+    let mut e = [0.0; 6];
+    e[k] = 1.0;
+    e
+}
+
+/// The rows of a hinge about z at a pivot `r` from the centre of mass: the pivot's
+/// velocity `v + w x r` (its component `a` is `[e_a; r x e_a] . [v; w]`), then `w_x`, `w_y`.
+fn hinge(r: [f64; 3]) -> Vec<Row> {
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let mut rows: Vec<Row> = (0..3)
+        .map(|a| {
+            let mut e = [0.0; 3];
+            e[a] = 1.0;
+            let rxe = cross(r, e);
+            Row::equality([e[0], e[1], e[2], rxe[0], rxe[1], rxe[2]])
+        })
+        .collect();
+    rows.push(Row::equality(unit(3)));
+    rows.push(Row::equality(unit(4)));
+    rows
+}
+
+/// A slider along y: `v_x`, `v_z` and the angular velocity held.
+fn slider() -> Vec<Row> {
+    [0, 2, 3, 4, 5].map(|k| Row::equality(unit(k))).to_vec()
+}
+
+/// One step of the body: `M v = f + G lambda` with `f = M v_prev + h F`, gravity along -y.
+struct Body {
+    mass: f64,
+    inertia: f64,
+    h: f64,
+}
+
+/// What a step gives back: the velocities and the rows' multipliers.
+struct Step {
+    v: Vec<f64>,
+    lambda: Vec<f64>,
+}
+
+impl Body {
+    fn step(&self, v_prev: &[f64], rows: &[Row]) -> Result<Step, String> {
+        let (m, i, h) = (self.mass, self.inertia, self.h);
+        let diag = [m, m, m, i, i, i];
+        let mass = CscMatrix::from_triplets(
+            "M",
+            6,
+            6,
+            &(0..6).map(|k| (k, k, diag[k])).collect::<Vec<_>>(),
+        )
+        .unwrap();
+        let f: Vec<f64> = (0..6)
+            .map(|k| diag[k] * v_prev[k] - if k == 1 { h * m * G } else { 0.0 })
+            .collect();
+        let triplets: Vec<(usize, usize, f64)> = rows
+            .iter()
+            .enumerate()
+            .flat_map(|(k, row)| {
+                (0..6)
+                    .filter(|&a| row.col[a] != 0.0)
+                    .map(move |a| (a, k, row.col[a]))
+            })
+            .collect();
+        let g = CscMatrix::from_triplets("G", 6, rows.len(), &triplets).unwrap();
+        let no_contact = CscMatrix::from_triplets("H", 6, 0, &[]).unwrap();
+        let p = GlobalProblem::new(mass, no_contact, f, vec![], vec![])
+            .unwrap()
+            .with_joints(g, rows.iter().map(|r| r.b).collect())
+            .unwrap()
+            .with_joint_bounds(
+                rows.iter().map(|r| r.lo).collect(),
+                rows.iter().map(|r| r.hi).collect(),
+            )
+            .unwrap()
+            .with_joint_compliance(rows.iter().map(|r| r.c).collect())
+            .unwrap();
+        let settings = Settings {
+            tolerance: TOL,
+            ..Default::default()
+        };
+        let mut solver = Solver::new(Problem::Global(p.clone()), settings).unwrap();
+        let status = solver.solve().unwrap();
+        let s = solver.solution();
+        let error = common::global_error(&p, &s.r, &s.v, &s.lambda);
+        if status != Status::Solved || error > TOL {
+            return Err(format!("step not solved: {status:?}, error {error:e}"));
+        }
+        Ok(Step {
+            v: s.v.clone(),
+            lambda: s.lambda.clone(),
+        })
+    }
+}
+
+/// The rod of the pendulum scenes: 2 kg, 1 m, hinged at one end, its centre of mass at
+/// angle `theta` from the x axis; `I` about the centre `m L^2 / 12`.
+const ROD_MASS: f64 = 2.0;
+const ROD_LENGTH: f64 = 1.0;
+
+fn rod() -> Body {
+    Body {
+        mass: ROD_MASS,
+        inertia: ROD_MASS * ROD_LENGTH * ROD_LENGTH / 12.0,
+        h: 0.01,
+    }
+}
+
+/// The pivot seen from the centre of mass at angle `theta`.
+fn pivot_at(theta: f64) -> [f64; 3] {
+    let half = ROD_LENGTH / 2.0;
+    [-half * theta.cos(), -half * theta.sin(), 0.0]
+}
+
+/// Gravity's torque about the pivot at angle `theta`, `m g L/2 cos(theta)` (clockwise).
+fn load_torque(theta: f64) -> f64 {
+    ROD_MASS * G * ROD_LENGTH / 2.0 * theta.cos()
+}
+
+/// The pendulum released at 60 degrees and falling onto a limit `theta >= 0` (the limit row
+/// `w_z + theta / h >= 0`, multiplier in `[0, inf)`) when `limit`, for 1.5 s: the angles
+/// and, at the end, the limit's multiplier.
+fn pendulum_onto_limit(limit: bool) -> Result<(Vec<f64>, f64), String> {
+    let body = rod();
+    let (mut theta, mut v) = (PI / 3.0, vec![0.0; 6]);
+    let mut angles = vec![theta];
+    let mut last_lambda = 0.0;
+    for _ in 0..150 {
+        let mut rows = hinge(pivot_at(theta));
+        if limit {
+            rows.push(Row {
+                col: unit(5),
+                b: theta / body.h,
+                lo: 0.0,
+                hi: INF,
+                c: 0.0,
+            });
+        }
+        let step = body.step(&v, &rows)?;
+        theta += body.h * step.v[5];
+        angles.push(theta);
+        last_lambda = step.lambda.get(5).copied().unwrap_or(0.0);
+        v = step.v;
+    }
+    Ok((angles, last_lambda))
+}
+
+/// The limit's law: the angle never goes below the limit, the pendulum ends on it, and the
+/// limit then carries the load's torque, `lambda = h m g L/2`.
+fn check_limit(angles: &[f64], lambda: f64, h: f64) -> Result<(), String> {
+    let lowest = angles.iter().copied().fold(INF, f64::min);
+    if lowest < -1e-9 {
+        return Err(format!(
+            "went through its limit: lowest angle {lowest:e} rad"
+        ));
+    }
+    let last = *angles.last().unwrap();
+    if last.abs() > 1e-9 {
+        return Err(format!("does not rest on its limit: ends at {last:e} rad"));
+    }
+    let expected = h * load_torque(0.0);
+    if (lambda - expected).abs() > 1e-7 * expected {
+        return Err(format!("limit impulse {lambda}, expected {expected}"));
+    }
+    Ok(())
+}
+
+#[test]
+fn hinge_pendulum_falls_onto_its_limit_and_rests_there_with_the_load_torque() {
+    let (angles, lambda) = pendulum_onto_limit(true).unwrap();
+    check_limit(&angles, lambda, rod().h).unwrap();
+    // Negative control: without the limit row the rod swings through.
+    let (free, lambda) = pendulum_onto_limit(false).unwrap();
+    let message = check_limit(&free, lambda, rod().h).unwrap_err();
+    assert!(message.contains("went through its limit"), "{message}");
+}
+
+/// A load of 3 kg on a slider along y, lifted by a motor (the row `v_y - target`, its
+/// multiplier in `[-F h, F h]`) from rest for 0.3 s: the velocity at each step and the
+/// motor's multiplier.
+fn motor_lift(force: f64, bounded: bool) -> Result<Vec<(f64, f64)>, String> {
+    let body = Body {
+        mass: 3.0,
+        inertia: 0.1,
+        h: 0.01,
+    };
+    let target = 0.5;
+    let mut rows = slider();
+    let limit = if bounded { force * body.h } else { INF };
+    rows.push(Row {
+        col: unit(1),
+        b: -target,
+        lo: -limit,
+        hi: limit,
+        c: 0.0,
+    });
+    let mut v = vec![0.0; 6];
+    let mut out = Vec::new();
+    for _ in 0..30 {
+        let step = body.step(&v, &rows)?;
+        out.push((step.v[1], step.lambda[5]));
+        v = step.v;
+    }
+    Ok(out)
+}
+
+/// The motor's law: saturated at `F` the load accelerates at `F/m - g` until it reaches
+/// the target velocity, which it then keeps with the impulse `m g h`.
+fn check_motor(steps: &[(f64, f64)], force: f64) -> Result<(), String> {
+    let (m, h, target) = (3.0, 0.01, 0.5);
+    let mut predicted = 0.0_f64;
+    for (k, &(v, lambda)) in steps.iter().enumerate() {
+        let saturated = predicted + h * (force / m - G);
+        let (v_expected, lambda_expected) = if saturated < target {
+            (saturated, force * h)
+        } else {
+            (target, m * (target - predicted) + m * G * h)
+        };
+        predicted = v_expected;
+        if (v - v_expected).abs() > 1e-8 || (lambda - lambda_expected).abs() > 1e-8 {
+            return Err(format!(
+                "step {k}: v = {v}, lambda = {lambda}; expected {v_expected} and {lambda_expected}"
+            ));
+        }
+    }
+    if (predicted - target).abs() > 1e-12 {
+        return Err(format!("the load never reached {target} m/s"));
+    }
+    Ok(())
+}
+
+#[test]
+fn motor_lifts_its_load_saturated_then_at_the_target_velocity() {
+    let force = 45.0;
+    check_motor(&motor_lift(force, true).unwrap(), force).unwrap();
+    // Negative control: a motor without its force limit reaches the target at once.
+    let message = check_motor(&motor_lift(force, false).unwrap(), force).unwrap_err();
+    assert!(message.starts_with("step 0:"), "{message}");
+}
+
+/// The rod held horizontal by dry joint friction (the row `w_z`, its multiplier in
+/// `[-F h, F h]` with `F` a share of the load's torque) from rest for 0.2 s: the angular
+/// velocities and the friction's multipliers.
+fn dry_friction(share: f64) -> Result<Vec<(f64, f64)>, String> {
+    let body = rod();
+    let limit = share * load_torque(0.0) * body.h;
+    let (mut theta, mut v) = (0.0, vec![0.0; 6]);
+    let mut out = Vec::new();
+    for _ in 0..20 {
+        let mut rows = hinge(pivot_at(theta));
+        rows.push(Row {
+            col: unit(5),
+            b: 0.0,
+            lo: -limit,
+            hi: limit,
+            c: 0.0,
+        });
+        let step = body.step(&v, &rows)?;
+        theta += body.h * step.v[5];
+        out.push((step.v[5], step.lambda[5]));
+        v = step.v;
+    }
+    Ok(out)
+}
+
+/// Holding: no rotation, and the friction carries the load's torque, `lambda = h m g L/2`.
+fn check_holds(steps: &[(f64, f64)]) -> Result<(), String> {
+    let expected = rod().h * load_torque(0.0);
+    for (k, &(w, lambda)) in steps.iter().enumerate() {
+        if w.abs() > 1e-9 || (lambda - expected).abs() > 1e-7 * expected {
+            return Err(format!("slipped at step {k}: w = {w}, lambda = {lambda}"));
+        }
+    }
+    Ok(())
+}
+
+/// Slipping from rest: the first step's angular velocity is `-h (tau - F) / I_pivot`, with
+/// `I_pivot = I + m (L/2)^2`, and the friction is at its bound.
+fn check_slips(steps: &[(f64, f64)], share: f64) -> Result<(), String> {
+    let body = rod();
+    let tau = load_torque(0.0);
+    let i_pivot = body.inertia + ROD_MASS * (ROD_LENGTH / 2.0).powi(2);
+    let expected = -body.h * (tau - share * tau) / i_pivot;
+    let (w, lambda) = steps[0];
+    if (w - expected).abs() > 1e-8 * expected.abs() {
+        return Err(format!("first step w = {w}, expected {expected}"));
+    }
+    if (lambda - share * tau * body.h).abs() > 1e-9 {
+        return Err(format!("friction {lambda} is not at its bound"));
+    }
+    Ok(())
+}
+
+#[test]
+fn dry_joint_friction_holds_below_its_limit_and_slips_above() {
+    let holding = dry_friction(1.25).unwrap();
+    let slipping = dry_friction(0.75).unwrap();
+    check_holds(&holding).unwrap();
+    check_slips(&slipping, 0.75).unwrap();
+    // Negative controls: each law rejects the other scene.
+    let message = check_holds(&slipping).unwrap_err();
+    assert!(message.starts_with("slipped at step 0"), "{message}");
+    let message = check_slips(&holding, 1.25).unwrap_err();
+    assert!(message.starts_with("first step"), "{message}");
+}
+
+/// A 1 kg load on a slider along y held by a spring of stiffness `k` to `y = 0`: the
+/// compliant equality row `v_y + y/h + c lambda = 0` with `c = 1 / (h^2 k)` (implicit
+/// Euler's spring, `lambda = -h k y_next`). Released at `y = 0.1` without gravity's
+/// effect on the period (it shifts the rest position only), for 4.5 s: the periods between
+/// upward crossings of the rest position.
+fn spring_periods(stiffness: f64) -> Result<Vec<f64>, String> {
+    let body = Body {
+        mass: 1.0,
+        inertia: 0.1,
+        h: 1e-3,
+    };
+    let rest = -body.mass * G / stiffness;
+    let (mut y, mut v) = (0.1, vec![0.0; 6]);
+    let mut crossings = Vec::new();
+    for k in 0..4500 {
+        let mut rows = slider();
+        rows.push(Row {
+            col: unit(1),
+            b: y / body.h,
+            lo: -INF,
+            hi: INF,
+            c: 1.0 / (body.h * body.h * stiffness),
+        });
+        let step = body.step(&v, &rows)?;
+        let y_next = y + body.h * step.v[1];
+        if y < rest && y_next >= rest {
+            // Linear interpolation of the crossing time within the step.
+            crossings.push((k as f64 + (rest - y) / (y_next - y)) * body.h);
+        }
+        y = y_next;
+        v = step.v;
+    }
+    Ok(crossings.windows(2).map(|w| w[1] - w[0]).collect())
+}
+
+/// The spring's law: every period within 0.2% of `2 pi sqrt(m / k)`.
+fn check_period(periods: &[f64], expected: f64) -> Result<(), String> {
+    if periods.is_empty() {
+        return Err("no whole period seen".into());
+    }
+    for &t in periods {
+        if (t - expected).abs() > 2e-3 * expected {
+            return Err(format!("period {t} s, expected {expected} s"));
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn soft_constraint_oscillates_at_its_spring_frequency() {
+    let k = 4.0 * PI * PI; // a period of 1 s for 1 kg
+    check_period(&spring_periods(k).unwrap(), 1.0).unwrap();
+    // Negative control: a quarter of the stiffness doubles the period.
+    let message = check_period(&spring_periods(k / 4.0).unwrap(), 1.0).unwrap_err();
+    assert!(message.starts_with("period"), "{message}");
+}
+
+#[test]
+fn bad_bounds_and_compliance_are_named() {
+    let m = CscMatrix::from_triplets("M", 1, 1, &[(0, 0, 1.0)]).unwrap();
+    let h = CscMatrix::from_triplets("H", 1, 0, &[]).unwrap();
+    let g = CscMatrix::from_triplets("G", 1, 2, &[(0, 0, 1.0), (0, 1, 1.0)]).unwrap();
+    let p = GlobalProblem::new(m, h, vec![1.0], vec![], vec![])
+        .unwrap()
+        .with_joints(g, vec![0.0, 0.0])
+        .unwrap();
+    let err = |r: Result<GlobalProblem, cadmm::Error>| r.unwrap_err().to_string();
+    let above = err(p.clone().with_joint_bounds(vec![0.0, 2.0], vec![1.0, 1.0]));
+    assert!(
+        above.contains("hi") && above.contains("lower bound above upper bound"),
+        "{above}"
+    );
+    let nan = err(p
+        .clone()
+        .with_joint_bounds(vec![f64::NAN, 0.0], vec![1.0, 1.0]));
+    assert!(nan.contains("lo") && nan.contains("NaN"), "{nan}");
+    let short = err(p.clone().with_joint_bounds(vec![0.0], vec![1.0]));
+    assert!(short.contains("lo"), "{short}");
+    let negative = err(p.clone().with_joint_compliance(vec![0.0, -1.0]));
+    assert!(
+        negative.contains("compliance") && negative.contains("negative"),
+        "{negative}"
+    );
+    // Bounds set in the public field after construction are checked by the solver.
+    let mut q = p
+        .with_joint_bounds(vec![0.0, -1.0], vec![INF, 1.0])
+        .unwrap();
+    q.joints.as_mut().unwrap().hi[1] = -INF;
+    let message = Solver::new(Problem::Global(q), Settings::default())
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(message.contains("upper bound is -inf"), "{message}");
+}
+
+/// The library's measure and the tests' own copy agree on problems with contacts, equality
+/// rows, bounded rows and compliance, at answers near and far from a solution (each
+/// bounded row's multiplier inside, at or beyond a bound).
+#[test]
+fn the_measure_of_joint_rows_matches_the_independent_copy() {
+    let mut rng = common::Rng::new(44);
+    for case in 0..40 {
+        let n = 6;
+        let nc = 2;
+        let np = 5;
+        let mass = CscMatrix::from_triplets(
+            "M",
+            n,
+            n,
+            &(0..n)
+                .map(|k| (k, k, 1.5 + 0.5 * rng.uniform()))
+                .collect::<Vec<_>>(),
+        )
+        .unwrap();
+        let dense = |rng: &mut common::Rng, rows: usize, cols: usize| {
+            let t: Vec<(usize, usize, f64)> = (0..rows)
+                .flat_map(|i| (0..cols).map(move |j| (i, j)))
+                .map(|(i, j)| (i, j, rng.uniform() - 0.5))
+                .collect();
+            CscMatrix::from_triplets("A", rows, cols, &t).unwrap()
+        };
+        let h = dense(&mut rng, n, 3 * nc);
+        let g = dense(&mut rng, n, np);
+        let vec = |rng: &mut common::Rng, len: usize| {
+            (0..len).map(|_| rng.uniform() - 0.5).collect::<Vec<f64>>()
+        };
+        let (f, w, b) = (vec(&mut rng, n), vec(&mut rng, 3 * nc), vec(&mut rng, np));
+        // Rows: an equality, a compliant equality, a limit, a motor, an upper bound only.
+        let lo = vec![-INF, -INF, 0.0, -0.3, -INF];
+        let hi = vec![INF, INF, INF, 0.3, 0.2];
+        let c = vec![0.0, 0.5, 0.0, 0.1 * rng.uniform().abs(), 0.0];
+        let p = GlobalProblem::new(mass, h, f, w, vec![0.4, 0.0])
+            .unwrap()
+            .with_joints(g, b)
+            .unwrap()
+            .with_joint_bounds(lo, hi)
+            .unwrap()
+            .with_joint_compliance(c)
+            .unwrap();
+        let scale = if case % 2 == 0 { 1e-3 } else { 1.0 };
+        let r = vec(&mut rng, 3 * nc)
+            .iter()
+            .map(|x| x * scale)
+            .collect::<Vec<_>>();
+        let v = vec(&mut rng, n);
+        let lambda = vec(&mut rng, np);
+        let ours = cadmm::measure::global_error(&p, &r, &v, &lambda);
+        let theirs = common::global_error(&p, &r, &v, &lambda);
+        assert!(
+            (ours - theirs).abs() <= 1e-12 * theirs.max(1.0),
+            "case {case}: {ours} against {theirs}"
+        );
+    }
+}

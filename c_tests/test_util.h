@@ -295,16 +295,37 @@ static inline double tu_local_error(const tu_csc *W, const double *q, const doub
     return e;
 }
 
-/* Global error with joints (docs/algorithms.md §3.1):
+/* Bounds and compliance of joint rows (NULL arrays: every row an equality without
+ * compliance). */
+typedef struct tu_rows {
+    const double *lo, *hi, *c;
+} tu_rows;
+
+/* Row k's residual at y = G_k^T v + b_k + c_k lambda_k: y for an equality, the natural map
+ * lambda - clamp(lambda - y, lo, hi) for a row with a finite bound. */
+static inline double tu_row_residual(tu_rows rows, size_t k, double gv, double b, double lambda,
+                                     int *bounded)
+{
+    double y = gv + b + (rows.c ? rows.c[k] * lambda : 0.0);
+    *bounded = rows.lo && (isfinite(rows.lo[k]) || isfinite(rows.hi[k]));
+    if (!*bounded) return y;
+    double z = lambda - y;
+    z = z < rows.lo[k] ? rows.lo[k] : (z > rows.hi[k] ? rows.hi[k] : z);
+    return lambda - z;
+}
+
+/* Global error with joint rows (docs/algorithms.md §3.1):
  *     ||-M v + H r + G lambda + f|| / max(||f||, ||M v||, ||H r + G lambda||)
  *   + ||r - P_K(r - (u + Phi(u)))|| / max(||u||, ||r||),          u = H^T v + w
- *   + ||G^T v + b|| / max(||G^T v||, ||b||, || |G|^T |diag(M)^-1 f| ||)  (joints only)
- * G (n x p), b (p) and lambda (p) describe the joints; G == NULL or G->ncols == 0 means none
- * (b and lambda are then not read). A non-finite r, v or lambda gives +inf. */
-static inline double tu_global_error_joints(const tu_csc *M, const tu_csc *H, const tu_csc *G,
-                                            const double *f, const double *w, const double *b,
-                                            const double *mu, size_t nc, const double *r,
-                                            const double *v, const double *lambda)
+ *   + ||rho_J|| / max(||G^T v||, ||b||, || |G|^T |diag(M)^-1 f| ||, ||lambda_B||)
+ * with rho_J the rows' residuals (tu_row_residual) and lambda_B the bounded rows'
+ * multipliers. G (n x p), b (p) and lambda (p) describe the rows; G == NULL or
+ * G->ncols == 0 means none (b and lambda are then not read). A non-finite r, v or lambda
+ * gives +inf. */
+static inline double tu_global_error_rows(const tu_csc *M, const tu_csc *H, const tu_csc *G,
+                                          const double *f, const double *w, const double *b,
+                                          tu_rows rows, const double *mu, size_t nc,
+                                          const double *r, const double *v, const double *lambda)
 {
     size_t n = M->nrows, m = 3 * nc, p = (G != NULL) ? G->ncols : 0;
     double *mv = (double *)tu_calloc(n, sizeof(double));
@@ -329,9 +350,12 @@ static inline double tu_global_error_joints(const tu_csc *M, const tu_csc *H, co
     if (p > 0) {
         double *res = (double *)tu_calloc(p, sizeof(double));
         double *free_v = (double *)tu_calloc(p, sizeof(double));
+        double *lambda_b = (double *)tu_calloc(p, sizeof(double));
         tu_csc_mul_t(G, v, 0, gv); /* G^T v */
         for (size_t k = 0; k < p; ++k) {
-            res[k] = gv[k] + b[k];
+            int bounded;
+            res[k] = tu_row_residual(rows, k, gv[k], b[k], lambda[k], &bounded);
+            lambda_b[k] = bounded ? lambda[k] : 0.0;
             /* the velocity row k sees under free motion: sum_i |G_ik f_i / M_ii| */
             for (int64_t e = G->colptr[k]; e < G->colptr[k + 1]; ++e) {
                 size_t i = (size_t)G->rowind[e];
@@ -342,9 +366,11 @@ static inline double tu_global_error_joints(const tu_csc *M, const tu_csc *H, co
             }
         }
         e3 = tu_relative(tu_norm(res, p),
-                         tu_max(tu_norm(gv, p), tu_max(tu_norm(b, p), tu_norm(free_v, p))));
+                         tu_max(tu_max(tu_norm(gv, p), tu_norm(lambda_b, p)),
+                                tu_max(tu_norm(b, p), tu_norm(free_v, p))));
         free(res);
         free(free_v);
+        free(lambda_b);
     }
     e1 = e1 + e2 + e3;
 done:
@@ -354,6 +380,16 @@ done:
     free(u);
     free(gv);
     return e1;
+}
+
+/* tu_global_error_rows with every joint row an equality without compliance. */
+static inline double tu_global_error_joints(const tu_csc *M, const tu_csc *H, const tu_csc *G,
+                                            const double *f, const double *w, const double *b,
+                                            const double *mu, size_t nc, const double *r,
+                                            const double *v, const double *lambda)
+{
+    tu_rows none = {NULL, NULL, NULL};
+    return tu_global_error_rows(M, H, G, f, w, b, none, mu, nc, r, v, lambda);
 }
 
 /* Global error without joints: ||-M v + H r + f|| / max(||f||, ||M v||, ||H r||)

@@ -166,6 +166,32 @@ int main(void)
         CHECK_MSG(fabs(e_lib - e_ind) <= 1e-12 * e_ind, "the two measures disagree");
         cadmm_problem_free(p);
     }
+    /* The strong motor's solver takes the weak motor's bounds for the next step. */
+    {
+        cadmm_problem *p = block(6.0, 0.0);
+        cadmm_settings *s = NULL;
+        cadmm_solver *sv = NULL;
+        cadmm_status status = -1;
+        double weak_lo[1] = {-3.0}, weak_hi[1] = {3.0}, none[1] = {-INFINITY};
+        double r[3], v[3], lambda[1];
+        REQUIRE(p != NULL && cadmm_settings_new(&s) == CADMM_OK);
+        REQUIRE(cadmm_settings_set_tolerance(s, TOL) == CADMM_OK);
+        REQUIRE(cadmm_solver_new(p, s, &sv) == CADMM_OK);
+        CHECK(cadmm_solver_update_joint_rows(sv, weak_lo, weak_hi, NULL) == CADMM_OK);
+        CHECK(cadmm_solver_solve(sv, &status) == CADMM_OK && status == CADMM_STATUS_SOLVED);
+        CHECK(cadmm_solver_get_solution(sv, r, NULL, v) == CADMM_OK);
+        CHECK(cadmm_solver_get_joint_multipliers(sv, lambda, NULL) == CADMM_OK);
+        printf("updated to the weak motor: lambda = %.9f, v_1 = %.3e\n", lambda[0], v[1]);
+        CHECK_MSG(fabs(lambda[0] - 3.0) <= ACC && fabs(v[1]) <= ACC, "update not taken");
+        /* Both bounds infinite would make the row an equality: a new pattern, refused. */
+        double open_hi[1] = {INFINITY};
+        CHECK(cadmm_solver_update_joint_rows(sv, none, open_hi, NULL) ==
+              CADMM_ERR_PATTERN_CHANGED);
+        CHECK(cadmm_solver_update_joint_rows(sv, NULL, NULL, NULL) == CADMM_OK);
+        cadmm_solver_free(sv);
+        cadmm_settings_free(s);
+        cadmm_problem_free(p);
+    }
     /* Bad bounds are named. */
     {
         cadmm_problem *p = block(6.0, 0.0);

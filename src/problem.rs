@@ -56,6 +56,32 @@ impl Joints {
         (0..self.b.len()).any(|k| self.is_bounded(k) || self.compliance[k] != 0.0)
     }
 
+    /// Checks the joint fields of an update: sizes, values, and the same rows bounded.
+    fn check_values(&self, v: &NewValues) -> Result<(), Error> {
+        let p = self.b.len();
+        if let Some(g) = v.g {
+            self.g.check_values("G", g)?;
+        }
+        if let Some(b) = v.b {
+            check_len("b", b, p)?;
+        }
+        if let Some(c) = v.compliance {
+            check_compliance(c, p)?;
+        }
+        if v.lo.is_none() && v.hi.is_none() {
+            return Ok(());
+        }
+        let (lo, hi) = (v.lo.unwrap_or(&self.lo), v.hi.unwrap_or(&self.hi));
+        check_bounds(lo, hi, p)?;
+        let bounded = |k: usize| lo[k] > f64::NEG_INFINITY || hi[k] < f64::INFINITY;
+        match (0..p).all(|k| bounded(k) == self.is_bounded(k)) {
+            true => Ok(()),
+            false => Err(Error::PatternChanged {
+                field: "joint bounds (which rows are bounded)",
+            }),
+        }
+    }
+
     /// Checks the sizes and values of the rows' fields for `p` rows.
     fn validate(&self, n: usize) -> Result<(), Error> {
         let p = self.g.ncols();
@@ -408,21 +434,19 @@ impl GlobalProblem {
         if let Some(x) = v.h {
             self.h.check_values("H", x)?;
         }
-        match (&self.joints, v.g, v.b) {
-            (None, None, None) => {}
-            (None, _, _) => {
+        match &self.joints {
+            None if [v.g, v.b, v.lo, v.hi, v.compliance]
+                .iter()
+                .any(Option::is_some) =>
+            {
                 return Err(Error::Unsupported(
-                    "update_values: G or b given, but the problem has no joints".into(),
+                    "update_values: G, b, bounds or compliance given, but the problem has no \
+                     joints"
+                        .into(),
                 ))
             }
-            (Some(j), g, b) => {
-                if let Some(g) = g {
-                    j.g.check_values("G", g)?;
-                }
-                if let Some(b) = b {
-                    check_len("b", b, j.b.len())?;
-                }
-            }
+            None => {}
+            Some(j) => j.check_values(v)?,
         }
         let set = |dst: &mut CscMatrix, field, src: Option<&[f64]>| match src {
             Some(src) => dst.set_values(field, src),
@@ -432,8 +456,16 @@ impl GlobalProblem {
         set(&mut self.h, "H", v.h)?;
         if let Some(j) = &mut self.joints {
             set(&mut j.g, "G", v.g)?;
-            if let Some(b) = v.b {
-                j.b.copy_from_slice(b);
+            let rows = [
+                (&mut j.b, v.b),
+                (&mut j.lo, v.lo),
+                (&mut j.hi, v.hi),
+                (&mut j.compliance, v.compliance),
+            ];
+            for (dst, src) in rows {
+                if let Some(src) = src {
+                    dst.copy_from_slice(src);
+                }
             }
         }
         for (dst, src) in [(&mut self.f, v.f), (&mut self.w, v.w), (&mut self.mu, v.mu)] {
@@ -449,10 +481,11 @@ impl LocalProblem {
     /// Takes new values on the same sizes and pattern (`None` keeps a value). Everything
     /// is checked before anything changes; no allocation.
     pub(crate) fn set_values(&mut self, v: &NewValues) -> Result<(), Error> {
-        if [v.m, v.h, v.g, v.f, v.w, v.b].iter().any(Option::is_some) {
+        let global = [v.m, v.h, v.g, v.f, v.w, v.b, v.lo, v.hi, v.compliance];
+        if global.iter().any(Option::is_some) {
             return Err(Error::Unsupported(
-                "update_values: M, H, G, f, w and b belong to a global problem, the solver \
-                 holds a local one"
+                "update_values: M, H, G, f, w, b and the joint bounds and compliance belong \
+                 to a global problem, the solver holds a local one"
                     .into(),
             ));
         }
@@ -673,6 +706,13 @@ pub struct NewValues<'a> {
     pub w: Option<&'a [f64]>,
     /// Global form with joints: `b`.
     pub b: Option<&'a [f64]>,
+    /// Global form with joints: lower bounds of the multipliers. Which rows are bounded
+    /// (a finite bound on either side) cannot change.
+    pub lo: Option<&'a [f64]>,
+    /// Global form with joints: upper bounds of the multipliers (same rule as `lo`).
+    pub hi: Option<&'a [f64]>,
+    /// Global form with joints: compliances.
+    pub compliance: Option<&'a [f64]>,
     /// Both forms: friction coefficients.
     pub mu: Option<&'a [f64]>,
     /// Local form: values of the Delassus matrix `W`.
@@ -691,6 +731,9 @@ impl NewValues<'static> {
         f: Some(&[]),
         w: Some(&[]),
         b: Some(&[]),
+        lo: Some(&[]),
+        hi: Some(&[]),
+        compliance: Some(&[]),
         mu: Some(&[]),
         delassus: Some(&[]),
         q: Some(&[]),
@@ -703,8 +746,9 @@ impl NewValues<'static> {
 /// from one update to the next.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct KeptValues {
-    /// `m, h, g, f, w, b, mu, delassus, q`, each with whether it was kept.
-    fields: [(bool, Vec<f64>); 9],
+    /// `m, h, g, f, w, b, mu, delassus, q, lo, hi, compliance`, each with whether it was
+    /// kept.
+    fields: [(bool, Vec<f64>); 12],
 }
 
 impl KeptValues {
@@ -730,6 +774,9 @@ impl KeptValues {
                 vector(6, given.mu, &p.mu);
                 if let Some(j) = &p.joints {
                     vector(5, given.b, &j.b);
+                    vector(9, given.lo, &j.lo);
+                    vector(10, given.hi, &j.hi);
+                    vector(11, given.compliance, &j.compliance);
                 }
             }
             ProblemRef::Local(p) => {
@@ -757,7 +804,7 @@ impl KeptValues {
 
     /// The kept values, as an update that puts them back.
     pub(crate) fn values(&self) -> NewValues<'_> {
-        let [m, h, g, f, w, b, mu, delassus, q] =
+        let [m, h, g, f, w, b, mu, delassus, q, lo, hi, compliance] =
             std::array::from_fn(|k| self.fields[k].0.then_some(&self.fields[k].1[..]));
         NewValues {
             m,
@@ -766,6 +813,9 @@ impl KeptValues {
             f,
             w,
             b,
+            lo,
+            hi,
+            compliance,
             mu,
             delassus,
             q,

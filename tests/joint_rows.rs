@@ -85,7 +85,8 @@ struct Step {
 }
 
 impl Body {
-    fn step(&self, v_prev: &[f64], rows: &[Row]) -> Result<Step, String> {
+    /// The step's problem: `M v = f + G lambda` with `f = M v_prev + h F`.
+    fn problem(&self, v_prev: &[f64], rows: &[Row]) -> GlobalProblem {
         let (m, i, h) = (self.mass, self.inertia, self.h);
         let diag = [m, m, m, i, i, i];
         let mass = CscMatrix::from_triplets(
@@ -109,7 +110,7 @@ impl Body {
             .collect();
         let g = CscMatrix::from_triplets("G", 6, rows.len(), &triplets).unwrap();
         let no_contact = CscMatrix::from_triplets("H", 6, 0, &[]).unwrap();
-        let p = GlobalProblem::new(mass, no_contact, f, vec![], vec![])
+        GlobalProblem::new(mass, no_contact, f, vec![], vec![])
             .unwrap()
             .with_joints(g, rows.iter().map(|r| r.b).collect())
             .unwrap()
@@ -119,7 +120,11 @@ impl Body {
             )
             .unwrap()
             .with_joint_compliance(rows.iter().map(|r| r.c).collect())
-            .unwrap();
+            .unwrap()
+    }
+
+    fn step(&self, v_prev: &[f64], rows: &[Row]) -> Result<Step, String> {
+        let p = self.problem(v_prev, rows);
         let settings = Settings {
             tolerance: TOL,
             ..Default::default()
@@ -502,4 +507,178 @@ fn the_measure_of_joint_rows_matches_the_independent_copy() {
             "case {case}: {ours} against {theirs}"
         );
     }
+}
+
+/// A solver built for one motor takes another's bounds and compliance through
+/// `update_values` and answers as a solver built for it; which rows are bounded cannot
+/// change, and a refused update changes nothing.
+#[test]
+fn update_values_takes_new_bounds_and_compliance() {
+    use cadmm::NewValues;
+    let body = Body {
+        mass: 3.0,
+        inertia: 0.1,
+        h: 0.01,
+    };
+    let problem = |limit: f64, c: f64| {
+        let mut rows = slider();
+        rows.push(Row {
+            col: unit(1),
+            b: -0.5,
+            lo: -limit,
+            hi: limit,
+            c,
+        });
+        body.problem(&[0.0; 6], &rows)
+    };
+    let settings = Settings {
+        tolerance: TOL,
+        ..Default::default()
+    };
+    let answer = |solver: &mut Solver| {
+        assert_eq!(solver.solve().unwrap(), Status::Solved);
+        solver.solution().clone()
+    };
+    let mut kept = Solver::new(Problem::Global(problem(0.45, 0.0)), settings.clone()).unwrap();
+    answer(&mut kept);
+    let (lo, hi, c) = (
+        [-INF, -INF, -INF, -INF, -INF, -0.2],
+        [INF, INF, INF, INF, INF, 0.2],
+        [0.0, 0.0, 0.0, 0.0, 0.0, 0.05],
+    );
+    kept.update_values(&NewValues {
+        lo: Some(&lo),
+        hi: Some(&hi),
+        compliance: Some(&c),
+        ..Default::default()
+    })
+    .unwrap();
+    let updated = answer(&mut kept);
+    let fresh = answer(&mut Solver::new(Problem::Global(problem(0.2, 0.05)), settings).unwrap());
+    assert!(
+        (updated.lambda[5] - 0.2).abs() < 1e-9,
+        "{:?}",
+        updated.lambda
+    );
+    for (a, b) in updated.v.iter().zip(&fresh.v) {
+        assert!(
+            (a - b).abs() < 1e-9,
+            "{:?} against {:?}",
+            updated.v,
+            fresh.v
+        );
+    }
+    // An equality made a bounded row is a new pattern; the solver keeps its values.
+    let mut widened = lo;
+    widened[0] = 0.0;
+    let err = kept
+        .update_values(&NewValues {
+            lo: Some(&widened),
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert!(matches!(err, cadmm::Error::PatternChanged { .. }), "{err}");
+    let again = answer(&mut kept);
+    assert_eq!(again.lambda, updated.lambda);
+}
+
+/// Two motors on separate bodies, one scene (no contact: solved as the scene's contact-free
+/// part), each with its own bounded row; an update of the whole scene's bounds reaches
+/// each row.
+#[test]
+fn bounded_rows_split_into_islands_and_take_updates() {
+    use cadmm::NewValues;
+    let body = Body {
+        mass: 3.0,
+        inertia: 0.1,
+        h: 0.01,
+    };
+    let motor = |limit: f64| {
+        let mut rows = slider();
+        rows.push(Row {
+            col: unit(1),
+            b: -0.5,
+            lo: -limit,
+            hi: limit,
+            c: 0.0,
+        });
+        Problem::Global(body.problem(&[0.0; 6], &rows))
+    };
+    let scene = Problem::block_diagonal(&[motor(0.45), motor(0.2)]).unwrap();
+    let settings = Settings {
+        tolerance: TOL,
+        ..Default::default()
+    };
+    let mut solver = Solver::new(scene, settings).unwrap();
+    assert_eq!(solver.solve().unwrap(), Status::Solved);
+    // Saturated, both: reaching 0.5 m/s from rest takes m (0.5 + g h) = 1.79 N s.
+    let lambda = &solver.solution().lambda;
+    assert!(
+        (lambda[5] - 0.45).abs() < 1e-9 && (lambda[11] - 0.2).abs() < 1e-9,
+        "{lambda:?}"
+    );
+    let mut lo = [f64::NEG_INFINITY; 12];
+    let mut hi = [INF; 12];
+    (lo[5], hi[5], lo[11], hi[11]) = (-0.1, 0.1, -0.3, 0.3);
+    solver
+        .update_values(&NewValues {
+            lo: Some(&lo),
+            hi: Some(&hi),
+            ..Default::default()
+        })
+        .unwrap();
+    assert_eq!(solver.solve().unwrap(), Status::Solved);
+    let lambda = &solver.solution().lambda;
+    assert!(
+        (lambda[5] - 0.1).abs() < 1e-9 && (lambda[11] - 0.3).abs() < 1e-9,
+        "{lambda:?}"
+    );
+}
+
+/// Two blocks on the ground, each pushed by a motor against friction (the C test's scene:
+/// unit mass, `f = (-9.81, 0, 0)`, `mu = 0.5`, the motor the row `v_1 - 0.3`): two contact
+/// islands, each carrying its bounded row. The strong motor (limit 6) slides its block at
+/// the target with `lambda = 0.3 + 4.905`; the weak one (limit 3) saturates while friction
+/// holds its block.
+#[test]
+fn islands_carry_their_bounded_rows() {
+    let block = |limit: f64| {
+        let eye =
+            CscMatrix::from_triplets("I", 3, 3, &[(0, 0, 1.0), (1, 1, 1.0), (2, 2, 1.0)]).unwrap();
+        let g = CscMatrix::from_triplets("G", 3, 1, &[(1, 0, 1.0)]).unwrap();
+        let p = GlobalProblem::new(
+            eye.clone(),
+            eye,
+            vec![-9.81, 0.0, 0.0],
+            vec![0.0; 3],
+            vec![0.5],
+        )
+        .unwrap()
+        .with_joints(g, vec![-0.3])
+        .unwrap()
+        .with_joint_bounds(vec![-limit], vec![limit])
+        .unwrap();
+        Problem::Global(p)
+    };
+    let scene = Problem::block_diagonal(&[block(6.0), block(3.0)]).unwrap();
+    let settings = Settings {
+        tolerance: TOL,
+        ..Default::default()
+    };
+    let mut solver = Solver::new(scene.clone(), settings).unwrap();
+    assert_eq!(solver.solve().unwrap(), Status::Solved);
+    assert_eq!(solver.island_stats().len(), 2, "one island per block");
+    let s = solver.solution();
+    let Problem::Global(p) = &scene else {
+        unreachable!()
+    };
+    assert!(common::global_error(p, &s.r, &s.v, &s.lambda) <= TOL);
+    assert!(
+        (s.lambda[0] - 5.205).abs() < 1e-7 && (s.v[1] - 0.3).abs() < 1e-7,
+        "{s:?}"
+    );
+    assert!(
+        (s.lambda[1] - 3.0).abs() < 1e-7 && s.v[4].abs() < 1e-7,
+        "{s:?}"
+    );
 }

@@ -159,6 +159,49 @@ pub unsafe extern "C" fn cadmm_solver_update_values(
     unsafe { with_mut(sv, body) }
 }
 
+/// New bounds and compliances of a global problem's joint rows (see
+/// `cadmm_problem_set_joint_bounds` and `cadmm_problem_set_joint_compliance`), for the next
+/// time step: `lo`, `hi` and `c` have one entry per joint row, each NULL to keep the current
+/// values. Which rows are bounded (a finite bound on either side) must stay the same, since
+/// bounded rows and equalities take different places in the solver's system; a step that
+/// makes an equality a bounded row or back needs a new solver (`CADMM_ERR_PATTERN_CHANGED`).
+/// Same behaviour otherwise as `cadmm_solver_update_values` (a refused update changes
+/// nothing; the next solve starts cold unless `cadmm_solver_warm_start` follows).
+///
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (NaN, `lo > hi`, a negative
+/// compliance), `CADMM_ERR_PATTERN_CHANGED`, `CADMM_ERR_UNSUPPORTED` (a local solver, or a
+/// problem without joints given any of the three).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_update_joint_rows(
+    sv: *mut cadmm_solver,
+    lo: *const f64,
+    hi: *const f64,
+    c: *const f64,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_solver| -> FfiResult {
+        if !sv.is_global {
+            return Err(other_form(
+                "cadmm_solver_update_joint_rows: the solver holds a local problem, which has \
+                 no joint rows",
+            ));
+        }
+        let n_joints = sv.value_lens[3];
+        // SAFETY: lengths from the problem the solver was built for; the caller's contract.
+        let values = unsafe {
+            NewValues {
+                lo: optional("lo", lo, n_joints)?,
+                hi: optional("hi", hi, n_joints)?,
+                compliance: optional("c", c, n_joints)?,
+                ..Default::default()
+            }
+        };
+        sv.solver.update_values(&values)?;
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_mut(sv, body) }
+}
+
 /// The per-step path of a local problem: new values of `W` (its `nnz` entries, in the order
 /// of the arrays passed to `cadmm_problem_new_local`), `q` (`3 n_contacts`) and `mu`
 /// (`n_contacts`), each NULL to keep the current values; same pattern, same behaviour and

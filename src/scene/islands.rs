@@ -288,7 +288,8 @@ pub(crate) struct ValueBuffers {
     g: Vec<f64>,
     f: Vec<f64>,
     w: Vec<f64>,
-    b: Vec<f64>,
+    /// The joint rows' `b`, `lo`, `hi` and compliance.
+    rows: [Vec<f64>; 4],
     mu: Vec<f64>,
 }
 
@@ -324,8 +325,16 @@ impl ValueBuffers {
                 &mut self.g,
             ));
         }
-        if let (Some(j), true) = (joints, given.b.is_some()) {
-            out.b = Some(gather_sized(&j.b, part.joints.iter().copied(), &mut self.b));
+        if let Some(j) = joints {
+            let rows = part.joints.iter().copied();
+            let [b, lo, hi, compliance] = &mut self.rows;
+            let pick = |given: Option<&[f64]>, x: &[f64], buf: &'a mut Vec<f64>| {
+                given.map(|_| gather_sized(x, rows.clone(), buf))
+            };
+            out.b = pick(given.b, &j.b, b);
+            out.lo = pick(given.lo, &j.lo, lo);
+            out.hi = pick(given.hi, &j.hi, hi);
+            out.compliance = pick(given.compliance, &j.compliance, compliance);
         }
         if given.f.is_some() {
             out.f = Some(gather_sized(

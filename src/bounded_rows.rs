@@ -40,6 +40,13 @@ impl BoundedRows {
         self.rows.len()
     }
 
+    /// Row `q`'s multiplier from its dual variable, `-rho zeta` clamped into the bounds: the
+    /// proximal step leaves it there, but an accelerated or relaxed iterate can carry it
+    /// past a bound by round-off, and an engine must never be handed that.
+    pub(crate) fn multiplier(&self, q: usize, zeta: f64, rho: f64) -> f64 {
+        (-rho * zeta).clamp(self.lo[q], self.hi[q])
+    }
+
     /// The proximal step of bounded row `q` at `a = G_k^T v + b_k + zeta` and penalty `rho`:
     /// the multiplier `lambda = P_[lo,hi](-rho a / (1 + rho c))`, which minimises
     /// `(c/2) lambda^2 + (1/(2 rho)) (lambda + rho a)^2` over the bounds, and the row's

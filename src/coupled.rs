@@ -5,7 +5,7 @@
 use crate::admm::{self, EngineSettings, EngineState, SUpdate};
 use crate::contact::{contact_form, initial_rho, ContactForm};
 use crate::measure::Floors;
-use crate::problem::{KeptValues, NewValues, Problem};
+use crate::problem::{KeptValues, NewValues, Problem, ProblemRef};
 use crate::settings::{NewtonUse, Resolved, Settings};
 use crate::tuning::{DENSE_MAX, HANDOVER_RETRY_FACTOR, NEWTON_FIRST_STEPS, NEWTON_MAX_STEPS};
 use crate::types::Solution;
@@ -92,10 +92,6 @@ impl CoupledSolver {
         let mut form = contact_form(problem, settings.linear_solver)?;
         if form.matrix_free() && resolved.newton == NewtonUse::Polish {
             // A Newton phase would factorize what the matrix-free backend avoids.
-            resolved.newton = NewtonUse::Off;
-        }
-        if bounded > 0 {
-            // The Newton phases know equality joint rows only: ADMM solves the bounded ones.
             resolved.newton = NewtonUse::Off;
         }
         let newton_first =
@@ -210,7 +206,11 @@ impl CoupledSolver {
 
     /// Starts the next solve from impulses `r` (and velocities `v`, global form).
     pub(crate) fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
-        let l = self.state.y.len();
+        // The contacts' impulses: the bounded joint rows after them start from zero.
+        let l = 3 * match self.form.problem() {
+            ProblemRef::Global(g) => g.n_contacts(),
+            ProblemRef::Local(p) => p.n_contacts(),
+        };
         if r.len() != l {
             return Err(Error::Dimension {
                 field: "r",

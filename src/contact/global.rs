@@ -478,7 +478,7 @@ impl ContactForm for ProblemSplitting {
         out.lambda.clear();
         out.lambda.extend(self.sol[n..].iter().map(|x| -x));
         for (q, &k) in self.bounded.rows.iter().enumerate() {
-            out.lambda[k] = -state.rho * state.zeta[m + q];
+            out.lambda[k] = self.bounded.multiplier(q, state.zeta[m + q], state.rho);
         }
     }
 
@@ -535,7 +535,11 @@ impl ContactForm for ProblemSplitting {
             mut lambda,
             ..
         } = s;
+        // The measure reads the bounded rows' multipliers after the impulses.
+        let m = r.len();
+        r.extend(self.bounded.rows.iter().map(|&k| lambda[k]));
         let start = self.system.measure(&self.p, &r, &self.sol);
+        r.truncate(m);
         if self.newton.is_none() {
             let mut newton = GlobalNewton::new(&self.p)?;
             newton.set_measure_floors(self.system.own().floors());
@@ -557,6 +561,10 @@ impl ContactForm for ProblemSplitting {
             self.sol[..n].copy_from_slice(&v);
             for (s, l) in self.sol[n..].iter_mut().zip(&lambda) {
                 *s = -l;
+            }
+            // A bounded row's multiplier is its dual variable's (`lambda = -rho zeta`).
+            for (q, &k) in self.bounded.rows.iter().enumerate() {
+                state.zeta[m + q] = -lambda[k] / state.rho;
             }
         }
         Ok(out)

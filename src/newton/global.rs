@@ -5,9 +5,15 @@
 //!
 //! ```text
 //! R_v      = M v - H r - G lambda - f
-//! R_lambda = G^T v + b
+//! R_lambda = G^T v + b + c lambda        (per joint row; see below for bounded rows)
 //! R_r      = F_AC(r, H^T v + w)
 //! ```
+//!
+//! A bounded joint row's residual is the natural map scaled to velocity units,
+//! `S_k (lambda - P_[lo,hi](lambda - y / S_k))` with `y = G_k^T v + b_k + c_k lambda`: `y`
+//! while the row is inside its bounds (the equality's residual), `S_k (lambda - bound)`
+//! once clamped, whose row of the Newton matrix is then `S_k dl_k` alone (its generalized
+//! Jacobian: the step lands on the bound).
 //!
 //! with the Newton matrix
 //!
@@ -17,13 +23,14 @@
 //! [ A H^T    0             B + alpha D A ]
 //! ```
 //!
-//! `D = diag(1 / rho_i)`, `S = diag(G_k^T diag(M)^-1 G_k)`. Eliminating `v` gives the
+//! `D = diag(1 / rho_i)`, `S = diag(G_k^T diag(M)^-1 G_k)` (plus the compliances `C` on
+//! the joint rows' diagonal). Eliminating `v` gives the
 //! local Newton matrix `A (W + alpha D) + B` exactly (and `G^T M^-1 G + alpha S` for the
 //! joints), so the regularization, line search and stopping rules are those of
 //! [`super::local`]: the proximal term keeps the matrix invertible when contacts (or
 //! joints) are redundant. The error measure is `crate::measure::global_error`.
 
-use super::reduced::{ReducedSystem, StepBlocks};
+use super::reduced::{columns, ReducedSystem, StepBlocks};
 use super::sparse::{Pattern, SparseLu};
 use super::{
     ac_branch, backtrack, impulse_scale, iterate, rho_from_block, AcPoint, Branch, NewtonOutcome,
@@ -31,7 +38,7 @@ use super::{
 };
 use crate::csc::CscMatrix;
 use crate::measure::{global_error_with, MeasureWork};
-use crate::problem::GlobalProblem;
+use crate::problem::{GlobalProblem, Joints};
 use crate::types::Error;
 use std::time::Instant;
 
@@ -59,6 +66,9 @@ pub struct GlobalNewton {
     // Residual pieces at the current point and their trial counterparts.
     rv: Vec<f64>,
     rl: Vec<f64>,
+    /// `G^T v` at the current point, and which joint rows are clamped at a bound there.
+    gv: Vec<f64>,
+    clamped: Vec<bool>,
     /// The Alart-Curnier function at the current point and at the trial point.
     point: AcPoint,
     trial_point: AcPoint,
@@ -193,6 +203,8 @@ impl GlobalNewton {
             rhs: vec![0.0; nz],
             rv: vec![0.0; n],
             rl: vec![0.0; p],
+            gv: vec![0.0; p],
+            clamped: vec![false; p],
             point: AcPoint::new(nc),
             trial_point: AcPoint::new(nc),
             d: vec![0.0; nz],
@@ -281,6 +293,7 @@ impl GlobalNewton {
             b: &self.point.b,
             reg: &self.reg,
             joint_reg: &self.joint_reg,
+            clamped: &self.clamped,
         };
         self.reduced.factor(&blocks) && self.reduced.solve(&blocks, &self.rhs, &mut self.d)
     }
@@ -302,9 +315,10 @@ impl GlobalNewton {
             vals[dest.m[k]] = v;
         }
         if let Some(j) = &prob.joints {
-            for (k, &v) in j.g.values().iter().enumerate() {
+            let clamped = &self.clamped;
+            for ((k, &v), col) in j.g.values().iter().enumerate().zip(columns(&j.g)) {
                 vals[dest.g[k]] = -v;
-                vals[dest.gt[k]] = v;
+                vals[dest.gt[k]] = if clamped[col] { 0.0 } else { v };
             }
         }
         for (&k, &reg) in dest.lam.iter().zip(&self.joint_reg) {
@@ -433,10 +447,10 @@ impl NewtonSystem for GlobalNewton {
         }
         if let Some(j) = &prob.joints {
             j.g.mul_vec(-1.0, lambda, 1.0, &mut self.rv);
-            // R_lambda = G^T v + b
-            j.g.mul_t_vec(1.0, v, 0.0, &mut self.rl);
-            for (x, b) in self.rl.iter_mut().zip(&j.b) {
-                *x += b;
+            j.g.mul_t_vec(1.0, v, 0.0, &mut self.gv);
+            for k in 0..p {
+                let s = self.joint_scale[k];
+                (self.rl[k], self.clamped[k]) = row_residual(j, k, self.gv[k], lambda[k], s);
             }
         }
         let merit = crate::csc::dot(&self.rv, &self.rv) + crate::csc::dot(&self.rl, &self.rl);
@@ -452,8 +466,15 @@ impl NewtonSystem for GlobalNewton {
         for (reg, rho) in self.reg.iter_mut().zip(&self.rho) {
             *reg = alpha / rho;
         }
-        for (reg, s) in self.joint_reg.iter_mut().zip(&self.joint_scale) {
-            *reg = alpha * s;
+        if let Some(j) = &prob.joints {
+            for k in 0..p {
+                let s = self.joint_scale[k];
+                self.joint_reg[k] = match self.clamped[k] {
+                    true => s,
+                    false if j.compliance[k] == 0.0 => alpha * s,
+                    false => alpha * s + j.compliance[k],
+                };
+            }
         }
         for (x, r) in self.rhs.iter_mut().zip(self.rv.iter().chain(&self.rl)) {
             *x = -r;
@@ -486,6 +507,8 @@ impl NewtonSystem for GlobalNewton {
             rv,
             jd_v,
             rl,
+            gv,
+            joint_scale,
             gt_dv,
             point,
             trial_point,
@@ -503,7 +526,15 @@ impl NewtonSystem for GlobalNewton {
                 lin += x * x;
             }
             for k in 0..p {
-                let x = rl[k] + t * gt_dv[k];
+                // An equality's residual is linear along the step; a bounded or compliant
+                // row's is evaluated at the trial point.
+                let x = match &prob.joints {
+                    Some(j) if j.is_bounded(k) || j.compliance[k] != 0.0 => {
+                        let (lambda, s) = (z_trial[n + k], joint_scale[k]);
+                        row_residual(j, k, gv[k] + t * gt_dv[k], lambda, s).0
+                    }
+                    _ => rl[k] + t * gt_dv[k],
+                };
                 lin += x * x;
             }
             for k in 0..point.u.len() {
@@ -547,6 +578,30 @@ impl NewtonSystem for GlobalNewton {
         } else {
             error
         }
+    }
+}
+
+/// Joint row `k`'s residual at `gv = G_k^T v` and `lambda`, in velocity units, and whether
+/// the row is clamped at a bound (module documentation): `y = gv + b + c lambda` for an
+/// equality or a bounded row inside its bounds, `s (lambda - bound)` for a clamped one.
+fn row_residual(j: &Joints, k: usize, gv: f64, lambda: f64, s: f64) -> (f64, bool) {
+    let c = j.compliance[k];
+    // Without compliance the sum is the equality's residual bit for bit.
+    let y = if c == 0.0 {
+        gv + j.b[k]
+    } else {
+        gv + j.b[k] + c * lambda
+    };
+    if !j.is_bounded(k) {
+        return (y, false);
+    }
+    let free = lambda - y / s;
+    if free <= j.lo[k] {
+        (s * (lambda - j.lo[k]), true)
+    } else if free >= j.hi[k] {
+        (s * (lambda - j.hi[k]), true)
+    } else {
+        (y, false)
     }
 }
 

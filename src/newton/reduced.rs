@@ -65,8 +65,10 @@ pub(super) struct StepBlocks<'a> {
     pub b: &'a [Mat3],
     /// `alpha / rho_i` per contact.
     pub reg: &'a [f64],
-    /// `alpha S_k` per joint.
+    /// The joint rows' diagonal: `alpha S_k + c_k`, or `S_k` for a row clamped at a bound.
     pub joint_reg: &'a [f64],
+    /// Per joint row: clamped at a bound, its row then `S_k dl_k` alone (no `G^T`).
+    pub clamped: &'a [bool],
 }
 
 impl ReducedSystem {
@@ -172,9 +174,9 @@ impl ReducedSystem {
             vals[self.m_dest[k]] = v;
         }
         if let Some(g) = s.g {
-            for (k, &v) in g.values().iter().enumerate() {
-                vals[self.g_dest[k]] = -v;
-                vals[self.gt_dest[k]] = v;
+            for ((entry, &v), col) in g.values().iter().enumerate().zip(columns(g)) {
+                vals[self.g_dest[entry]] = -v;
+                vals[self.gt_dest[entry]] = if s.clamped[col] { 0.0 } else { v };
             }
         }
         for (&d, &reg) in self.lam_dest.iter().zip(s.joint_reg) {
@@ -269,6 +271,10 @@ impl ReducedSystem {
         if let Some(g) = s.g {
             g.mul_vec(1.0, dl, 1.0, rv);
             g.mul_t_vec(-1.0, dv, 1.0, rl);
+            for k in (0..p).filter(|&k| s.clamped[k]) {
+                // A clamped row has no G^T: take its product back out.
+                rl[k] += g.col(k).map(|(i, x)| x * dv[i]).sum::<f64>();
+            }
         }
         for ((x, l), reg) in rl.iter_mut().zip(dl).zip(s.joint_reg) {
             *x -= reg * l;
@@ -287,6 +293,11 @@ impl ReducedSystem {
             }
         }
     }
+}
+
+/// The column of each stored entry of `a`, in storage order.
+pub(super) fn columns(a: &CscMatrix) -> impl Iterator<Item = usize> + '_ {
+    (0..a.ncols()).flat_map(|k| std::iter::repeat_n(k, a.col(k).count()))
 }
 
 fn mul3(a: &Mat3, b: &Mat3) -> Mat3 {

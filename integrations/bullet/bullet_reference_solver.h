@@ -1,7 +1,9 @@
 // Bullet's own btSequentialImpulseConstraintSolver, timed, with the error measure of its
 // answer: the impulses and velocities it leaves are measured by cadmm_problem_error on the
 // velocity-level problem it solves (contact_problem.h with Bullet's bias: split impulse keeps
-// shallow penetration out of w_N; its friction directions projected on the problem's frame).
+// shallow penetration out of w_N; its friction directions projected on the problem's frame;
+// joint rows with least-squares multipliers, which know nothing of bounds: Bullet keeps only
+// each constraint's last row's impulse).
 #pragma once
 
 #include "cadmm_constraint_solver.h"

@@ -49,7 +49,8 @@ SolveStats CadmmConstraintSolver::takeStats() { return std::exchange(stats_, Sol
 
 // Hands a time step's values to cadmm: when the sizes and sparsity patterns are those of the
 // solver's problem, the value arrays go straight to the solver (same order of the matrix
-// values; numeric refactorization only, no cadmm problem built), else a new solver.
+// values; numeric refactorization only, no cadmm problem built), with the joint rows'
+// bounds and compliance while either step has some; else a new solver.
 void CadmmConstraintSolver::pushValues(const ContactProblem &p) {
   if (solver_ && p.samePattern(current_)) {
     const bool joints = p.jointRows() > 0;  // G and b only for a problem with joints
@@ -57,6 +58,9 @@ void CadmmConstraintSolver::pushValues(const ContactProblem &p) {
                                      joints ? p.G.values.data() : nullptr, p.f.data(), p.w.data(),
                                      joints ? p.b.data() : nullptr, p.mu.data()),
           "cadmm_solver_update_values", solver_);
+    if (p.beyondEqualities() || current_.beyondEqualities())
+      check(cadmm_solver_update_joint_rows(solver_, p.lo.data(), p.hi.data(), p.compliance.data()),
+            "cadmm_solver_update_joint_rows", solver_);
     return;
   }
   std::unique_ptr<cadmm_problem, void (*)(cadmm_problem *)> problem(p.make(), cadmm_problem_free);

@@ -1,5 +1,5 @@
 // CadmmConstraintSolver: a btConstraintSolver that solves each solver group (contacts with
-// Coulomb friction cones, btPoint2PointConstraint joints) with cadmm instead of sequential
+// Coulomb friction cones, every enabled btTypedConstraint) with cadmm instead of sequential
 // impulses. Drop-in:
 //
 //   cadmm_bullet::CadmmConstraintSolver solver;
@@ -8,13 +8,45 @@
 // What it does per group: the global problem of contact_problem.h (Baumgarte correction of
 // penetration at rate m_erp2, no split impulse), one cadmm solver kept alive across steps
 // (numeric refactorization only while the sizes and sparsity patterns stay the same), warm
-// start from the impulses stored in the manifold points, impulses written back to the points
-// and velocities to the bodies.
+// start from the impulses stored in the manifold points (not for a group with a bounded
+// joint row: solveGroup), impulses written back to the points, constraint impulses to the
+// constraints and velocities to the bodies.
 //
-// What it refuses: a group with anything contact_problem.cpp does not map (a joint other than
-// btPoint2PointConstraint, rolling friction, soft contacts, locked axes...) or a failed cadmm
-// call makes solveGroup throw cadmm_bullet::Error out of stepSimulation before any body or
-// contact point of the group was changed: the step is not solved, and says why.
+// Constraints: each enabled one through the rows it hands Bullet's own solver (buildJacobian,
+// getInfo1, getInfo2, as btSequentialImpulseConstraintSolver::convertJoint), so every type
+// Bullet 3.24 ships (point to point, hinge with limits and motor, slider, the three 6-DOF
+// constraints and their springs and motors, cone twist, fixed, gear, hinge2, universal) and
+// any constraint written the same way. Bullet's row k (Jacobian J, error e, cfm, impulse
+// bounds, D = J M^-1 J^T from the bodies' inverse mass and world inertia) converges to
+// J v + cfm D lambda = e + (1 - damping) J v_before, lambda within the bounds (clamped by
+// the breaking threshold); cadmm solves that row exactly: G's column J, b the rest, compliance
+// cfm D. m_globalCfm enters each constraint's first row, as Bullet's. Written back as
+// Bullet's writeBackJoints: applied impulse (the last row's), btJointFeedback (J^T lambda / h
+// per body), a row at the breaking threshold disables the constraint. Bullet's iteration
+// counts mean nothing to cadmm, which solves to its tolerance (btGeneric6DofSpringConstraint
+// still reads m_numIterations into its spring's target speed, as it does for Bullet).
+//
+// What it refuses: solveGroup throws cadmm_bullet::Error out of stepSimulation, naming the
+// object and the reason, before anything of the group was written back (bodies, contact
+// points, constraint impulses: the step is not solved), for:
+//  - rolling or spinning friction on a contact (m_combinedRollingFriction or
+//    m_combinedSpinningFriction > 0): cadmm's contacts have no torque rows;
+//  - a soft contact: contact CFM or stiffness and damping (BT_CONTACT_FLAG_HAS_CONTACT_CFM,
+//    BT_CONTACT_FLAG_CONTACT_STIFFNESS_DAMPING), or m_globalCfm != 0 in a group with contact
+//    points (Bullet makes every contact soft with it; cadmm's contacts are rigid). A group
+//    without contact points takes it, as the joint rows' compliance. A contact ERP
+//    (BT_CONTACT_FLAG_HAS_CONTACT_ERP) is only a Baumgarte rate and is mapped;
+//  - anisotropic friction;
+//  - a constraint switched to Bullet's obsolete solver (m_useSolveConstraintObsolete of
+//    btPoint2PointConstraint and btGeneric6DofConstraint): it has no rows;
+//  - a row that is no constraint: a non-finite Jacobian or CFM, a NaN, a negative CFM,
+//    bounds that hold no impulse (lo > hi), an infinite target velocity with no bound;
+//  - a dynamic body with a linear or angular factor other than (1, 1, 1) or an infinite mass
+//    or inertia component, a body that is not a btRigidBody, a dynamic body in a contact or
+//    constraint of the group but not in the group;
+//  - a failed cadmm call.
+// Not detectable, so not refused: a custom constraint that does its work in
+// solveConstraintObsolete instead of rows.
 #pragma once
 
 #include "contact_problem.h"
@@ -24,7 +56,8 @@
 namespace cadmm_bullet {
 
 // One group's solve as cadmm answered it: the problem handed to cadmm and the impulses,
-// velocities and joint multipliers written back (3 per contact, n, 3 per joint).
+// velocities and joint multipliers written back (3 per contact, n, 1 per joint row:
+// ContactProblem::jointRow finds a constraint's).
 struct SolvedGroup {
   const ContactProblem &problem;
   const double *r, *v, *lambda;

@@ -1,5 +1,6 @@
 #include "contact_problem.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace cadmm_bullet {
@@ -34,8 +35,38 @@ const char *typeName(int type) {
     case GEAR_CONSTRAINT_TYPE: return "btGearConstraint";
     case FIXED_CONSTRAINT_TYPE: return "btFixedConstraint";
     case D6_SPRING_2_CONSTRAINT_TYPE: return "btGeneric6DofSpring2Constraint";
-    default: return "unknown btTypedConstraint type";
+    default: return "btTypedConstraint of an unknown type";
   }
+}
+
+// A constraint as a message names it: its class (btHinge2Constraint and
+// btUniversalConstraint share their base's type number) and its bodies.
+std::string describe(const btTypedConstraint &c) {
+  std::string type = typeName(c.getConstraintType());
+  if (dynamic_cast<const btHinge2Constraint *>(&c)) type = "btHinge2Constraint";
+  if (dynamic_cast<const btUniversalConstraint *>(&c)) type = "btUniversalConstraint";
+  return type + " (user id " + std::to_string(c.getUserConstraintId()) + ") between " +
+         name(&c.getRigidBodyA()) + " and " + name(&c.getRigidBodyB());
+}
+
+// The constraints a user can switch to Bullet's pre-getInfo2 solver (a public
+// m_useSolveConstraintObsolete; the hinge's and cone twist's are private, fixed at false when
+// Bullet is built): they then hand out no rows and expect solveConstraintObsolete between
+// iterations, which has no place here.
+bool usesObsoleteSolver(const btTypedConstraint &c) {
+  if (auto *j = dynamic_cast<const btPoint2PointConstraint *>(&c))
+    return j->m_useSolveConstraintObsolete;
+  if (auto *j = dynamic_cast<const btGeneric6DofConstraint *>(&c))
+    return j->m_useSolveConstraintObsolete;
+  return false;
+}
+
+// Bullet's "no limit" is SIMD_INFINITY, which is DBL_MAX in double precision; cadmm's is
+// INFINITY.
+double bound(double x) { return x >= 1e30 ? INFINITY : x <= -1e30 ? -INFINITY : x; }
+
+bool finite(const btVector3 &v) {
+  return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
 }
 
 }  // namespace
@@ -58,11 +89,11 @@ void ContactProblem::assemble(btCollisionObject **bodies, int numBodies,
                               btPersistentManifold **manifolds, int numManifolds,
                               btTypedConstraint **constraints, int numConstraints,
                               const btContactSolverInfo &info, const Correction &correction) {
-  if (info.m_globalCfm != 0)
-    throw Error("cadmm_bullet: m_globalCfm != 0 (soft constraints) is not supported");
   h_ = info.m_timeStep;
-  bodies_.clear(), index_.clear(), points_.clear(), joints_.clear();
+  bodies_.clear(), index_.clear(), points_.clear(), rows_.clear(), joints_.clear();
+  allJoints_.clear();
   f.clear(), vfree_.clear(), w.clear(), mu.clear(), b.clear();
+  lo.clear(), hi.clear(), compliance.clear();
 
   for (int i = 0; i < numBodies; ++i) {
     btRigidBody *rb = btRigidBody::upcast(bodies[i]);
@@ -83,16 +114,14 @@ void ContactProblem::assemble(btCollisionObject **bodies, int numBodies,
     }
   }
 
-  // Joints: every enabled one must be mapped, or the whole group is refused.
+  // Constraints: every enabled one is mapped through its rows, or the whole group is
+  // refused. buildJacobian on all of them, as btSequentialImpulseConstraintSolver::
+  // convertJoints does before it asks the enabled ones for their rows.
   for (int k = 0; k < numConstraints; ++k) {
     btTypedConstraint *c = constraints[k];
-    if (!c->isEnabled()) continue;
-    if (c->getConstraintType() != POINT2POINT_CONSTRAINT_TYPE)
-      throw Error(std::string("cadmm_bullet: joint type ") + typeName(c->getConstraintType()) +
-                  " is not supported (only btPoint2PointConstraint is mapped); the step was "
-                  "not solved");
-    addPointToPoint(*static_cast<btPoint2PointConstraint *>(c), info);
-    joints_.push_back(c);
+    c->buildJacobian();
+    allJoints_.push_back(c);
+    if (c->isEnabled()) addConstraint(*c, info);
   }
 }
 
@@ -100,10 +129,12 @@ void ContactProblem::addBody(btRigidBody *rb, const btContactSolverInfo &info) {
   const btVector3 one(1, 1, 1), inv = rb->getInvInertiaDiagLocal();
   if (rb->getLinearFactor() != one || rb->getAngularFactor() != one)
     throw Error("cadmm_bullet: " + name(rb) +
-                " has a linear or angular factor other than (1, 1, 1): not supported");
+                " has a linear or angular factor other than (1, 1, 1): not supported (cadmm's M "
+                "moves every body in all 6 directions)");
   if (!(rb->getInvMass() > 0) || !(inv.x() > 0) || !(inv.y() > 0) || !(inv.z() > 0))
     throw Error("cadmm_bullet: dynamic " + name(rb) +
-                " has an infinite mass or inertia component: not supported");
+                " has an infinite mass or inertia component: not supported (cadmm's M must be "
+                "positive definite)");
   const double h = info.m_timeStep, mass = 1 / rb->getInvMass();
   const btMatrix3x3 &R = rb->getWorldTransform().getBasis();
   const btMatrix3x3 I = R.scaled(btVector3(1 / inv.x(), 1 / inv.y(), 1 / inv.z())) * R.transpose();
@@ -158,14 +189,21 @@ void ContactProblem::addContact(btPersistentManifold *m, btManifoldPoint &cp,
   const btCollisionObject *A = m->getBody0(), *B = m->getBody1();
   if (cp.m_combinedRollingFriction > 0 || cp.m_combinedSpinningFriction > 0)
     throw Error("cadmm_bullet: rolling or spinning friction between " + name(A) + " and " +
-                name(B) + " is not supported");
+                name(B) + " is not supported: cadmm's contacts have no torque rows");
   if (cp.m_contactPointFlags &
       (BT_CONTACT_FLAG_HAS_CONTACT_CFM | BT_CONTACT_FLAG_CONTACT_STIFFNESS_DAMPING))
     throw Error("cadmm_bullet: soft contact (CFM, stiffness/damping) between " + name(A) +
-                " and " + name(B) + " is not supported");
+                " and " + name(B) + " is not supported: cadmm's contacts are rigid");
+  // Bullet's setupContactConstraint gives every contact the global CFM: a soft contact.
+  // (Joint rows take it, as compliance: addConstraint.)
+  if (info.m_globalCfm != 0)
+    throw Error("cadmm_bullet: m_globalCfm = " + std::to_string(info.m_globalCfm) +
+                " makes the contact between " + name(A) + " and " + name(B) +
+                " soft, which cadmm's rigid contacts cannot be (a group without contact "
+                "points takes it)");
   if (A->hasAnisotropicFriction() || B->hasAnisotropicFriction())
     throw Error("cadmm_bullet: anisotropic friction on " + name(A) + " or " + name(B) +
-                " is not supported");
+                " is not supported: cadmm's friction cones are isotropic");
 
   Point pt{&cp, cp.m_normalWorldOnB, {}, {}};
   btPlaneSpace1(pt.n, pt.t1, pt.t2);
@@ -196,16 +234,148 @@ void ContactProblem::addContact(btPersistentManifold *m, btManifoldPoint &cp,
   points_.push_back(pt);
 }
 
-void ContactProblem::addPointToPoint(btPoint2PointConstraint &j, const btContactSolverInfo &info) {
-  const btRigidBody &A = j.getRigidBodyA(), &B = j.getRigidBodyB();
-  const btVector3 pA = A.getWorldTransform() * j.getPivotInA();
-  const btVector3 pB = B.getWorldTransform() * j.getPivotInB();
-  const double rate = info.m_erp / info.m_timeStep;  // Bullet's joint ERP (info2.erp)
-  for (int k = 0; k < 3; ++k) {
-    btVector3 e(0, 0, 0);
-    e[k] = 1;
-    b.push_back(addRow(G, &A, pA, &B, pB, e) + rate * (pA[k] - pB[k]));
+void ContactProblem::addConstraint(btTypedConstraint &c, const btContactSolverInfo &info) {
+  if (usesObsoleteSolver(c))
+    throw Error("cadmm_bullet: " + describe(c) +
+                " uses Bullet's obsolete solver (m_useSolveConstraintObsolete): it has no rows "
+                "to map");
+  btTypedConstraint::btConstraintInfo1 info1{0, 0};
+  c.getInfo1(&info1);
+  const int n = info1.m_numConstraintRows;
+  joints_.push_back({&c, rows_.size(), size_t(std::max(n, 0))});
+  if (n <= 0) return;
+
+  // The rows as convertJoint hands them to getInfo2: zeroed, unbounded, and the global
+  // CFM in the first row only (the others keep the zero of Bullet's memset; the 6-DOF
+  // constraints read info2.cfm[0] as the global CFM).
+  info_.assign(size_t(n), InfoRow{});
+  for (InfoRow &r : info_) {
+    r.j1lin.setZero(), r.j1ang.setZero(), r.j2lin.setZero(), r.j2ang.setZero();
+    r.error = 0, r.cfm = 0, r.lo = -SIMD_INFINITY, r.hi = SIMD_INFINITY;
   }
+  info_[0].cfm = info.m_globalCfm;
+  static_assert(sizeof(InfoRow) % sizeof(btScalar) == 0, "rowskip counts whole scalars");
+  btTypedConstraint::btConstraintInfo2 info2;
+  info2.fps = 1 / info.m_timeStep;
+  info2.erp = info.m_erp;
+  info2.m_J1linearAxis = info_[0].j1lin.m_floats;
+  info2.m_J1angularAxis = info_[0].j1ang.m_floats;
+  info2.m_J2linearAxis = info_[0].j2lin.m_floats;
+  info2.m_J2angularAxis = info_[0].j2ang.m_floats;
+  info2.rowskip = int(sizeof(InfoRow) / sizeof(btScalar));
+  info2.m_constraintError = &info_[0].error;
+  info2.cfm = &info_[0].cfm;
+  info2.m_lowerLimit = &info_[0].lo;
+  info2.m_upperLimit = &info_[0].hi;
+  info2.m_numIterations = info.m_numIterations;
+  info2.m_damping = info.m_damping;
+  c.getInfo2(&info2);
+
+  const btRigidBody &A = c.getRigidBodyA(), &B = c.getRigidBodyB();
+  const int iA = index(&A), iB = index(&B);
+  // The velocities before the solve as convertJoint reads them: a dynamic body's with the
+  // external impulse of the step (and the gyroscopic term: the free velocities of f), a
+  // fixed body's as it is (static or kinematic, no external impulse).
+  auto before = [&](const btRigidBody &rb, int i0, btVector3 &lin, btVector3 &ang) {
+    if (i0 < 0) {
+      lin = rb.getLinearVelocity(), ang = rb.getAngularVelocity();
+      return;
+    }
+    lin.setValue(vfree_[i0], vfree_[i0 + 1], vfree_[i0 + 2]);
+    ang.setValue(vfree_[i0 + 3], vfree_[i0 + 4], vfree_[i0 + 5]);
+  };
+  btVector3 vA, wA, vB, wB;
+  before(A, iA, vA, wA);
+  before(B, iB, vB, wB);
+  // The damping as getInfo2 left it: btPoint2PointConstraint sets its own (m_setting).
+  const double threshold = c.getBreakingImpulseThreshold(), damping = info2.m_damping;
+
+  for (int k = 0; k < n; ++k) {
+    const InfoRow &r = info_[size_t(k)];
+    auto row = [&] { return "row " + std::to_string(k) + " of " + describe(c); };
+    if (!finite(r.j1lin) || !finite(r.j1ang) || !finite(r.j2lin) || !finite(r.j2ang) ||
+        !std::isfinite(r.cfm) || std::isnan(r.error) || std::isnan(r.lo) || std::isnan(r.hi))
+      throw Error("cadmm_bullet: " + row() + " has a non-finite Jacobian or CFM, or a NaN");
+    if (r.cfm < 0)
+      throw Error("cadmm_bullet: " + row() + " has a negative CFM " + std::to_string(r.cfm) +
+                  ": a negative compliance is not a constraint cadmm solves");
+
+    // Bullet's impulse bounds, clamped by the breaking threshold as convertJoint does.
+    double l = bound(std::max<double>(r.lo, -threshold));
+    double u = bound(std::min<double>(r.hi, threshold));
+    // D = J M^-1 J^T, as convertJoint sums it (Bullet's 1 / m_jacDiagABInv).
+    const double D = A.getInvMass() * r.j1lin.length2() +
+                     r.j1ang.dot(A.getInvInertiaTensorWorld() * r.j1ang) +
+                     B.getInvMass() * r.j2lin.length2() +
+                     r.j2ang.dot(B.getInvInertiaTensorWorld() * r.j2ang);
+    if (!(std::fabs(D) > SIMD_EPSILON) || (iA < 0 && iB < 0)) {
+      // convertJoint's m_jacDiagABInv = 0: Bullet's row never moves from a zero impulse
+      // (and a row between fixed bodies moves nothing here).
+      rows_.push_back({-1, r.j1lin, r.j1ang, r.j2lin, r.j2ang});
+      continue;
+    }
+    double error = r.error;
+    if (std::isinf(bound(error))) {
+      // An infinite target velocity (btGeneric6DofSpring2Constraint's
+      // BT_6DOF_FLAGS_USE_INFINITE_ERROR): Bullet's row ends at the bound it pushes towards.
+      const double at = error > 0 ? u : l;
+      if (std::isinf(at))
+        throw Error("cadmm_bullet: " + row() +
+                    " asks for an infinite velocity with no bound on its impulse");
+      l = u = at, error = 0;
+    }
+    if (!(l <= u) || l == INFINITY || u == -INFINITY)
+      throw Error("cadmm_bullet: " + row() + " has impulse bounds [" + std::to_string(l) + ", " +
+                  std::to_string(u) + "] that hold no impulse");
+
+    // Bullet's row converges to J v + cfm D lambda = error + (1 - damping) J v_before, J v
+    // summed over both bodies; a fixed body's part of J v is known and moves to b.
+    const double jvBefore = r.j1lin.dot(vA) + r.j1ang.dot(wA) + r.j2lin.dot(vB) + r.j2ang.dot(wB);
+    double fixedPart = 0;
+    if (iA < 0)
+      fixedPart += r.j1lin.dot(A.getLinearVelocity()) + r.j1ang.dot(A.getAngularVelocity());
+    if (iB < 0)
+      fixedPart += r.j2lin.dot(B.getLinearVelocity()) + r.j2ang.dot(B.getAngularVelocity());
+
+    // Column: 6 entries per dynamic body, zeros included, so that the pattern stays while
+    // the axes turn; the two blocks add up when A and B are the same body.
+    const int column = int(G.ncols);
+    if (iA >= 0 && iA == iB) {
+      for (int i = 0; i < 3; ++i) G.push(iA + i, r.j1lin[i] + r.j2lin[i]);
+      for (int i = 0; i < 3; ++i) G.push(iA + 3 + i, r.j1ang[i] + r.j2ang[i]);
+    } else {
+      if (iA >= 0) {
+        for (int i = 0; i < 3; ++i) G.push(iA + i, r.j1lin[i]);
+        for (int i = 0; i < 3; ++i) G.push(iA + 3 + i, r.j1ang[i]);
+      }
+      if (iB >= 0) {
+        for (int i = 0; i < 3; ++i) G.push(iB + i, r.j2lin[i]);
+        for (int i = 0; i < 3; ++i) G.push(iB + 3 + i, r.j2ang[i]);
+      }
+    }
+    G.endColumn();
+    b.push_back(fixedPart - error - (1 - damping) * jvBefore);
+    lo.push_back(l), hi.push_back(u), compliance.push_back(r.cfm * D);
+    rows_.push_back({column, r.j1lin, r.j1ang, r.j2lin, r.j2ang});
+  }
+}
+
+int ContactProblem::jointRow(const btTypedConstraint *c, int k) const {
+  for (const Joint &j : joints_)
+    if (j.c == c) return k >= 0 && size_t(k) < j.count ? rows_[j.first + size_t(k)].column : -1;
+  return -1;
+}
+
+std::vector<bool> ContactProblem::boundedRows() const {
+  std::vector<bool> out(lo.size());
+  for (size_t k = 0; k < lo.size(); ++k) out[k] = std::isfinite(lo[k]) || std::isfinite(hi[k]);
+  return out;
+}
+
+bool ContactProblem::beyondEqualities() const {
+  for (size_t k = 0; k < lo.size(); ++k)
+    if (std::isfinite(lo[k]) || std::isfinite(hi[k]) || compliance[k] != 0) return true;
+  return false;
 }
 
 cadmm_problem *ContactProblem::make() const {
@@ -214,10 +384,20 @@ cadmm_problem *ContactProblem::make() const {
   if (cadmm_problem_new_global(velocities(), contacts(), &m, &h, f.data(), w.data(), mu.data(),
                                &p) != CADMM_OK)
     throw Error(std::string("cadmm_bullet: cadmm_problem_new_global: ") + cadmm_last_error());
-  if (jointRows() && cadmm_problem_set_joints(p, &g, b.data()) != CADMM_OK) {
+  // Bounds and compliance only when a row has them: a problem of equalities stays as it
+  // was before they existed (and can be written as an FCLib file).
+  const char *failed = nullptr;
+  const bool beyond = beyondEqualities();
+  if (jointRows() && cadmm_problem_set_joints(p, &g, b.data()) != CADMM_OK)
+    failed = "cadmm_problem_set_joints";
+  else if (beyond && cadmm_problem_set_joint_bounds(p, lo.data(), hi.data()) != CADMM_OK)
+    failed = "cadmm_problem_set_joint_bounds";
+  else if (beyond && cadmm_problem_set_joint_compliance(p, compliance.data()) != CADMM_OK)
+    failed = "cadmm_problem_set_joint_compliance";
+  if (failed) {
     const std::string msg = cadmm_last_error();
     cadmm_problem_free(p);
-    throw Error("cadmm_bullet: cadmm_problem_set_joints: " + msg);
+    throw Error(std::string("cadmm_bullet: ") + failed + ": " + msg);
   }
   return p;
 }
@@ -258,18 +438,32 @@ void ContactProblem::writeBack(const double *r, const double *v, const double *l
     cp.m_lateralFrictionDir1 = points_[i].t1;
     cp.m_lateralFrictionDir2 = points_[i].t2;
   }
-  for (size_t k = 0; k < joints_.size(); ++k) {
-    btTypedConstraint *c = joints_[k];
-    const btVector3 impulse(lambda[3 * k], lambda[3 * k + 1], lambda[3 * k + 2]);
-    c->internalSetAppliedImpulse(impulse.length());
+  // As btSequentialImpulseConstraintSolver: every constraint of the group starts from no
+  // impulse and no feedback (convertJoints), then each row of an enabled one adds its
+  // impulse (writeBackJoints): the feedback sums J^T lambda / h per body, the applied
+  // impulse is the last row's, and a row at the breaking threshold disables the constraint.
+  for (btTypedConstraint *c : allJoints_) {
+    c->internalSetAppliedImpulse(0);
     if (btJointFeedback *fb = c->getJointFeedback()) {
-      auto *p2p = static_cast<btPoint2PointConstraint *>(c);
-      const btRigidBody &A = c->getRigidBodyA(), &B = c->getRigidBodyB();
-      const btVector3 force = impulse / h_;  // Bullet reports forces, impulse / step
-      const btVector3 rA = A.getWorldTransform().getBasis() * p2p->getPivotInA();
-      const btVector3 rB = B.getWorldTransform().getBasis() * p2p->getPivotInB();
-      fb->m_appliedForceBodyA = force, fb->m_appliedTorqueBodyA = rA.cross(force);
-      fb->m_appliedForceBodyB = -force, fb->m_appliedTorqueBodyB = -rB.cross(force);
+      fb->m_appliedForceBodyA.setZero(), fb->m_appliedTorqueBodyA.setZero();
+      fb->m_appliedForceBodyB.setZero(), fb->m_appliedTorqueBodyB.setZero();
+    }
+  }
+  for (const Joint &j : joints_) {
+    btTypedConstraint *c = j.c;
+    btJointFeedback *fb = c->getJointFeedback();
+    const btRigidBody &A = c->getRigidBodyA(), &B = c->getRigidBodyB();
+    for (size_t k = j.first; k < j.first + j.count; ++k) {
+      const JointRow &row = rows_[k];
+      const double impulse = row.column >= 0 ? lambda[row.column] : 0;
+      if (fb) {  // with the bodies' factors, as Bullet (other than 1 on fixed bodies only)
+        fb->m_appliedForceBodyA += row.j1lin * A.getLinearFactor() * (impulse / h_);
+        fb->m_appliedTorqueBodyA += row.j1ang * A.getAngularFactor() * (impulse / h_);
+        fb->m_appliedForceBodyB += row.j2lin * B.getLinearFactor() * (impulse / h_);
+        fb->m_appliedTorqueBodyB += row.j2ang * B.getAngularFactor() * (impulse / h_);
+      }
+      c->internalSetAppliedImpulse(impulse);
+      if (std::fabs(impulse) >= c->getBreakingImpulseThreshold()) c->setEnabled(false);
     }
   }
   for (size_t i = 0; i < bodies_.size(); ++i) {

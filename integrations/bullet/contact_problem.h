@@ -1,7 +1,9 @@
 // The cadmm global problem of one Bullet solver group (bodies, persistent manifolds,
-// joints), with the maps back to Bullet's objects.
+// constraints), with the maps back to Bullet's objects.
 //
-//   M v = H r + G lambda + f,   u = H^T v + w,   G^T v + b = 0,   r_i in K_{mu_i}
+//   M v = H r + G lambda + f,   u = H^T v + w,   r_i in K_{mu_i},
+//   per joint row k: y_k = G_k^T v + b_k + c_k lambda_k, lo_k <= lambda_k <= hi_k
+//   (y_k = 0 inside the bounds, >= 0 at lo_k, <= 0 at hi_k; an equality when both are infinite)
 //
 // Unknowns: the 6 velocities (linear, then angular, world frame, about the centre of mass)
 // of every dynamic body of the group, in the group's order. Static and kinematic bodies are
@@ -9,6 +11,12 @@
 // the frame (n, t1, t2), n = the manifold's m_normalWorldOnB (from body 1 towards body 0) and
 // t1, t2 = btPlaneSpace1(n), so r_N >= 0 pushes body 0 along n, body 1 along -n, and
 // u_N = n . (velocity of body 0's point - velocity of body 1's point) + w_N.
+//
+// Joint rows are the rows each enabled btTypedConstraint hands Bullet's own solver
+// (getInfo1/getInfo2, as btSequentialImpulseConstraintSolver::convertJoint reads them): G's
+// column is the row's Jacobian, lambda the row's impulse, and Bullet's row equation
+// J v + cfm D lambda = error + (1 - damping) J v_before becomes b and c (contact_problem.cpp,
+// addConstraint).
 #pragma once
 
 #include <btBulletDynamicsCommon.h>
@@ -64,12 +72,23 @@ class ContactProblem {
   size_t velocities() const { return f.size(); }
   size_t contacts() const { return mu.size(); }
   size_t jointRows() const { return b.size(); }
+  // Which joint rows are bounded is part of the pattern: cadmm's solver keeps the bounded
+  // rows apart from the equalities (cadmm_solver_update refuses a change of them).
   bool samePattern(const ContactProblem &o) const {
-    return M.samePattern(o.M) && H.samePattern(o.H) && G.samePattern(o.G);
+    return M.samePattern(o.M) && H.samePattern(o.H) && G.samePattern(o.G) &&
+           boundedRows() == o.boundedRows();
   }
+  // Whether a joint row is bounded or compliant: then cadmm needs the bounds and
+  // compliance calls, which cadmm_solver_update_values does not take.
+  bool beyondEqualities() const;
 
   // A new cadmm problem with these values; throws Error with cadmm's message.
   cadmm_problem *make() const;
+
+  // The column of G (the index in lambda) of row k of constraint c, rows numbered as c's
+  // getInfo2 fills them; -1 when c is not mapped in this problem or Bullet's solver would
+  // leave that row inert (no dynamic body along it).
+  int jointRow(const btTypedConstraint *c, int k) const;
 
   // Impulses stored in the manifold points (m_appliedImpulse, m_appliedImpulseLateral1/2)
   // read in this problem's frames: the warm start of the next solve. bulletFrames: the
@@ -82,7 +101,8 @@ class ContactProblem {
   const std::vector<double> &freeVelocities() const { return vfree_; }
 
   // Writes impulses to the manifold points (and their frames to m_lateralFrictionDir1/2),
-  // joint impulses to the joints and velocities to the bodies.
+  // joint impulses to the constraints (as btSequentialImpulseConstraintSolver's
+  // writeBackJoints: applied impulse, btJointFeedback, breaking) and velocities to the bodies.
   void writeBack(const double *r, const double *v, const double *lambda) const;
 
  private:
@@ -94,8 +114,9 @@ class ContactProblem {
   void addBody(btRigidBody *rb, const btContactSolverInfo &info);
   void addContact(btPersistentManifold *m, btManifoldPoint &cp, const btContactSolverInfo &info,
                   const Correction &c);
-  void addPointToPoint(btPoint2PointConstraint &j, const btContactSolverInfo &info);
-  // One column of H or G: the relative velocity along d of point pA on A and pB on B;
+  void addConstraint(btTypedConstraint &c, const btContactSolverInfo &info);
+  std::vector<bool> boundedRows() const;
+  // One column of H: the relative velocity along d of point pA on A and pB on B;
   // returns the part of that velocity from fixed bodies (their velocity is no unknown).
   double addRow(Csc &J, const btCollisionObject *A, const btVector3 &pA,
                 const btCollisionObject *B, const btVector3 &pB, const btVector3 &d);
@@ -103,13 +124,36 @@ class ContactProblem {
   std::vector<btRigidBody *> bodies_;
   std::unordered_map<const btCollisionObject *, int> index_;
   std::vector<Point> points_;
-  std::vector<btTypedConstraint *> joints_;
+  // One row of a mapped constraint: its Jacobian (kept for the joint feedback) and its
+  // column of G, -1 for a row Bullet's solver leaves inert.
+  struct JointRow {
+    int column;
+    btVector3 j1lin, j1ang, j2lin, j2ang;
+  };
+  struct Joint {
+    btTypedConstraint *c;
+    size_t first, count;  // its rows in rows_
+  };
+  std::vector<JointRow> rows_;
+  // getInfo2's output for one row, as Bullet's btSolverConstraint lays it out for it: each
+  // Jacobian block a btVector3 (getInfo2 writes 3 scalars, some through a btVector3), the
+  // error, cfm and limits; rowskip is this struct's size in scalars.
+  struct InfoRow {
+    btVector3 j1lin, j1ang, j2lin, j2ang;
+    btScalar error, cfm, lo, hi;
+  };
+  std::vector<InfoRow> info_;
+  std::vector<Joint> joints_;                   // the enabled constraints, mapped
+  std::vector<btTypedConstraint *> allJoints_;  // every constraint of the group
   std::vector<double> vfree_;
   double h_ = 0;  // time step
 
  public:
   Csc M, H, G;
   std::vector<double> f, w, mu, b;
+  // Per joint row: the bounds of its multiplier (-INFINITY, INFINITY for none) and its
+  // compliance (0 for a rigid row).
+  std::vector<double> lo, hi, compliance;
 };
 
 }  // namespace cadmm_bullet

@@ -87,15 +87,23 @@ double remeasureError(const ContactProblem &p, const double *r, const double *v,
 
   if (nj) {
     mulTransAdd(p.G, v, gv);
-    std::vector<double> jr(nj), freeV(nj, 0.0), freeAbs(n, 0.0);
-    for (size_t k = 0; k < nj; ++k) jr[k] = gv[k] + p.b[k];
+    std::vector<double> jr(nj), freeV(nj, 0.0), freeAbs(n, 0.0), bounded;
+    for (size_t k = 0; k < nj; ++k) {
+      const double y = gv[k] + p.b[k] + p.compliance[k] * lambda[k];
+      if (std::isinf(p.lo[k]) && std::isinf(p.hi[k])) {
+        jr[k] = y;
+      } else {
+        jr[k] = lambda[k] - std::clamp(lambda[k] - y, p.lo[k], p.hi[k]);
+        bounded.push_back(lambda[k]);
+      }
+    }
     // The velocities the joint rows see under free motion: |G|^T |diag(M)^-1 f|.
     for (size_t i = 0; i < n; ++i) {
       const double d = diagonal(p.M, i);
       freeAbs[i] = d > 0 ? std::fabs(p.f[i] / d) : 0.0;
     }
     absTransAdd(p.G, freeAbs.data(), freeV);
-    e += relative(norm(jr), std::max({norm(gv), norm(p.b), norm(freeV)}));
+    e += relative(norm(jr), std::max({norm(gv), norm(p.b), norm(freeV), norm(bounded)}));
   }
   return std::isfinite(e) ? e : std::numeric_limits<double>::infinity();
 }

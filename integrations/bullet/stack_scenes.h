@@ -84,7 +84,7 @@ class StackWorld {
 //    fixed point, released horizontal, swinging into a standing box.
 // False for an unknown name.
 bool buildScene(const std::string &name, StackWorld &w, int count = 0, unsigned seed = 1);
-// Adds a hinge between the two lowest boxes (a joint type the cadmm solver refuses).
+// Adds a hinge between the two lowest boxes (about x, at their shared face).
 void addHinge(StackWorld &w);
 
 }  // namespace cadmm_bullet

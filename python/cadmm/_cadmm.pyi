@@ -15,7 +15,7 @@ VectorLike = npt.ArrayLike
 Vector = npt.NDArray[np.float64]
 
 class GlobalProblem:
-    """``M v = H r + G lambda + f``, ``u = H^T v + w``, ``G^T v + b = 0``, Coulomb cones ``mu``."""
+    """``M v = H r + G lambda + f``, ``u = H^T v + w``, Coulomb cones ``mu``; joint rows ``G^T v + b + compliance lambda``, bounded by ``lo <= lambda <= hi``."""
 
     def __init__(
         self,
@@ -26,6 +26,10 @@ class GlobalProblem:
         mu: VectorLike,
         G: Optional[MatrixLike] = None,
         b: Optional[VectorLike] = None,
+        *,
+        lo: Optional[VectorLike] = None,
+        hi: Optional[VectorLike] = None,
+        compliance: Optional[VectorLike] = None,
     ) -> None: ...
     @property
     def n(self) -> int: ...
@@ -142,10 +146,17 @@ class Solver:
         mu: Optional[VectorLike] = None,
         W: Optional[MatrixLike] = None,
         q: Optional[VectorLike] = None,
+        lo: Optional[VectorLike] = None,
+        hi: Optional[VectorLike] = None,
+        compliance: Optional[VectorLike] = None,
     ) -> None: ...
     def warm_start(self, r: VectorLike, v: Optional[VectorLike] = None) -> None: ...
     def update_settings(self, settings: Settings) -> None: ...
 
 def error(
-    problem: Problem, r: VectorLike, u: Optional[VectorLike] = None, v: Optional[VectorLike] = None
+    problem: Problem,
+    r: VectorLike,
+    u: Optional[VectorLike] = None,
+    v: Optional[VectorLike] = None,
+    lambda_: Optional[VectorLike] = None,
 ) -> float: ...

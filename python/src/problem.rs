@@ -5,8 +5,9 @@ use crate::errors::{raise, OrRaise};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 
-/// A global problem `M v = H r + G lambda + f`, `u = H^T v + w`, `G^T v + b = 0`, with
-/// Coulomb cones of coefficients `mu` (FCLib conventions, normal first).
+/// A global problem `M v = H r + G lambda + f`, `u = H^T v + w`, with Coulomb cones of
+/// coefficients `mu` (FCLib conventions, normal first) and joint rows
+/// `G^T v + b + compliance * lambda`: equalities unless bounded, `lo <= lambda <= hi`.
 #[pyclass(frozen, module = "cadmm")]
 pub struct GlobalProblem {
     pub inner: cadmm::GlobalProblem,
@@ -15,7 +16,7 @@ pub struct GlobalProblem {
 #[pymethods]
 impl GlobalProblem {
     #[new]
-    #[pyo3(signature = (M, H, f, w, mu, G=None, b=None))]
+    #[pyo3(signature = (M, H, f, w, mu, G=None, b=None, *, lo=None, hi=None, compliance=None))]
     #[allow(non_snake_case, clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -26,6 +27,9 @@ impl GlobalProblem {
         mu: &Bound<'_, PyAny>,
         G: Option<&Bound<'_, PyAny>>,
         b: Option<&Bound<'_, PyAny>>,
+        lo: Option<&Bound<'_, PyAny>>,
+        hi: Option<&Bound<'_, PyAny>>,
+        compliance: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let problem = cadmm::GlobalProblem::new(
             matrix(py, "M", M)?,
@@ -44,6 +48,21 @@ impl GlobalProblem {
                 let b = b.unwrap_or_else(|| vec![0.0; g.ncols()]);
                 problem.with_joints(g, b).or_raise(py)?
             }
+        };
+        let p = inner.n_joints();
+        let (lo, hi) = (optional_vector("lo", lo)?, optional_vector("hi", hi)?);
+        let inner = match (lo, hi) {
+            (None, None) => inner,
+            (lo, hi) => inner
+                .with_joint_bounds(
+                    lo.unwrap_or_else(|| vec![f64::NEG_INFINITY; p]),
+                    hi.unwrap_or_else(|| vec![f64::INFINITY; p]),
+                )
+                .or_raise(py)?,
+        };
+        let inner = match optional_vector("compliance", compliance)? {
+            Some(c) => inner.with_joint_compliance(c).or_raise(py)?,
+            None => inner,
         };
         Ok(Self { inner })
     }
@@ -194,15 +213,18 @@ fn check_len(py: Python<'_>, field: &'static str, x: &[f64], len: usize) -> PyRe
 }
 
 /// The error measure of an answer `(r, u, v)` to `problem` (docs/algorithms.md §3): `u` is
-/// recomputed from `r` (local) or `v` (global), which the global form requires.
+/// recomputed from `r` (local) or `v` (global), which the global form requires. The joint
+/// multipliers `lambda_` are recomputed by least squares when not given (knowing nothing of
+/// bounds: give them for a problem with bounded rows).
 #[pyfunction]
-#[pyo3(signature = (problem, r, u=None, v=None))]
+#[pyo3(signature = (problem, r, u=None, v=None, lambda_=None))]
 pub fn error(
     py: Python<'_>,
     problem: &Bound<'_, PyAny>,
     r: &Bound<'_, PyAny>,
     u: Option<&Bound<'_, PyAny>>,
     v: Option<&Bound<'_, PyAny>>,
+    lambda_: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<f64> {
     let _ = u;
     let r = vector("r", r)?;
@@ -217,7 +239,11 @@ pub fn error(
             ));
         };
         check_len(py, "v", &v, g.n())?;
-        Ok(py.detach(|| cadmm::measure::global_error(g, &r, &v, &[])))
+        let lambda = optional_vector("lambda_", lambda_)?.unwrap_or_default();
+        if !lambda.is_empty() {
+            check_len(py, "lambda_", &lambda, g.n_joints())?;
+        }
+        Ok(py.detach(|| cadmm::measure::global_error(g, &r, &v, &lambda)))
     } else if let Ok(l) = problem.cast::<LocalProblem>() {
         let l = &l.get().inner;
         check_len(py, "r", &r, 3 * l.n_contacts())?;

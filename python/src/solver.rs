@@ -115,7 +115,7 @@ impl Solver {
     /// was built with, or as 1-D arrays of their values in compressed-column order. A
     /// refused update changes nothing. The next solve starts from zero unless
     /// `warm_start` follows.
-    #[pyo3(signature = (*, M=None, H=None, G=None, f=None, w=None, b=None, mu=None, W=None, q=None))]
+    #[pyo3(signature = (*, M=None, H=None, G=None, f=None, w=None, b=None, mu=None, W=None, q=None, lo=None, hi=None, compliance=None))]
     #[allow(non_snake_case, clippy::too_many_arguments)]
     fn update_values(
         &self,
@@ -129,6 +129,9 @@ impl Solver {
         mu: Option<&Bound<'_, PyAny>>,
         W: Option<&Bound<'_, PyAny>>,
         q: Option<&Bound<'_, PyAny>>,
+        lo: Option<&Bound<'_, PyAny>>,
+        hi: Option<&Bound<'_, PyAny>>,
+        compliance: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let built = self.problem.bind(py);
         let global = built.cast::<GlobalProblem>().ok().map(|g| &g.get().inner);
@@ -149,6 +152,11 @@ impl Solver {
             optional_vector("b", b)?,
         );
         let (mu, q) = (optional_vector("mu", mu)?, optional_vector("q", q)?);
+        let (lo, hi, compliance) = (
+            optional_vector("lo", lo)?,
+            optional_vector("hi", hi)?,
+            optional_vector("compliance", compliance)?,
+        );
         let new = cadmm::NewValues {
             m: m.as_deref(),
             h: h.as_deref(),
@@ -156,9 +164,9 @@ impl Solver {
             f: f.as_deref(),
             w: w.as_deref(),
             b: b.as_deref(),
-            lo: None,
-            hi: None,
-            compliance: None,
+            lo: lo.as_deref(),
+            hi: hi.as_deref(),
+            compliance: compliance.as_deref(),
             mu: mu.as_deref(),
             delassus: delassus.as_deref(),
             q: q.as_deref(),

@@ -40,15 +40,50 @@ static void project_cone(double mu, const double z[3], double out[3]) {
     }
 }
 
-double check_error(const cadmm_ode_problem *p, const double *r, const double *v) {
-    size_t n = p->n, m = 3 * p->n_contacts;
-    if (m == 0) return 0.0;
-    double *mv = calloc(n, sizeof *mv), *hr = calloc(n, sizeof *hr), *u = malloc(m * sizeof *u),
-           *res = malloc((n > m ? n : m) * sizeof *res);
+/* M's diagonal entry i (0 when absent). */
+static double diagonal(const cadmm_csc *M, size_t i) {
+    for (int64_t k = M->colptr[i]; k < M->colptr[i + 1]; k++)
+        if ((size_t)M->rowind[k] == i) return M->values[k];
+    return 0.0;
+}
+
+/* The joint term: ||rho_J|| over its scale. */
+static double joint_term(const cadmm_ode_problem *p, const double *v, const double *lambda) {
+    size_t nr = p->n_joint_rows;
+    double res = 0.0, gv2 = 0.0, free2 = 0.0, b2 = 0.0, lb2 = 0.0;
+    for (size_t k = 0; k < nr; k++) {
+        double gv = 0.0, fv = 0.0;
+        for (int64_t i = p->G.colptr[k]; i < p->G.colptr[k + 1]; i++) {
+            size_t row = (size_t)p->G.rowind[i];
+            double d = diagonal(&p->M, row);
+            gv += p->G.values[i] * v[row];
+            fv += fabs(p->G.values[i] * (d > 0 ? p->f[row] / d : 0.0));
+        }
+        double y = gv + p->b[k] + p->c[k] * lambda[k], rho = y;
+        if (p->lo[k] > -INFINITY || p->hi[k] < INFINITY) {
+            rho = lambda[k] - fmin(fmax(lambda[k] - y, p->lo[k]), p->hi[k]);
+            lb2 += lambda[k] * lambda[k];
+        }
+        res += rho * rho;
+        gv2 += gv * gv;
+        free2 += fv * fv;
+        b2 += p->b[k] * p->b[k];
+    }
+    return relative(sqrt(res), sqrt(fmax(fmax(gv2, b2), fmax(free2, lb2))));
+}
+
+double check_error(const cadmm_ode_problem *p, const double *r, const double *v,
+                   const double *lambda) {
+    size_t n = p->n, m = 3 * p->n_contacts, nr = p->n_joint_rows;
+    if (m == 0 && nr == 0) return 0.0;
+    if (nr > 0 && !lambda) return INFINITY;
+    double *mv = calloc(n, sizeof *mv), *hr = calloc(n, sizeof *hr),
+           *u = malloc((m + 1) * sizeof *u), *res = malloc((n > m ? n : m) * sizeof *res);
     double e = INFINITY;
     if (mv && hr && u && res) {
         mul_add(&p->M, v, mv);
         mul_add(&p->H, r, hr);
+        if (nr > 0) mul_add(&p->G, lambda, hr);
         for (size_t i = 0; i < m; i++) u[i] = p->w[i];
         mul_trans_add(&p->H, v, u);
 
@@ -65,6 +100,7 @@ double check_error(const cadmm_ode_problem *p, const double *r, const double *v)
             for (int k = 0; k < 3; k++) res[3 * c + k] = rc[k] - proj[k];
         }
         e += relative(norm(res, m), fmax(norm(u, m), norm(r, m)));
+        if (nr > 0) e += joint_term(p, v, lambda);
         if (!isfinite(e)) e = INFINITY;
     }
     free(mv);

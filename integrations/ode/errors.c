@@ -1,5 +1,6 @@
 /* cadmm_ode_errors: bad input to cadmm_ode gets an error code and a message naming what is
- * wrong, never a crash; a valid step after the failures still works. */
+ * wrong, never a crash; so do the joints and contact surfaces it cannot express; a valid
+ * step after the failures still works. */
 #include "cadmm_ode.h"
 
 #include <stdio.h>
@@ -72,6 +73,82 @@ int main(void) {
     expect(ctx, cadmm_ode_step(ctx, world, bodies, 2, &tilted, 1, 0.01, &info),
            CADMM_ERR_INVALID_VALUE, "normal of length");
     expect(ctx, cadmm_ode_solve(ctx, &info), CADMM_ERR_UNSUPPORTED, "nothing assembled");
+
+    /* Joints the host cannot express are refused, naming their type; each is destroyed
+     * after its check. */
+    struct {
+        dJointID j;
+        const char *name;
+    } refused[] = {
+        {dJointCreateAMotor(world, 0), "dJointTypeAMotor"},
+        {dJointCreateLMotor(world, 0), "dJointTypeLMotor"},
+        {dJointCreatePlane2D(world, 0), "dJointTypePlane2D"},
+        {dJointCreatePR(world, 0), "dJointTypePR"},
+        {dJointCreatePU(world, 0), "dJointTypePU"},
+        {dJointCreatePiston(world, 0), "dJointTypePiston"},
+        {dJointCreateDBall(world, 0), "dJointTypeDBall"},
+        {dJointCreateDHinge(world, 0), "dJointTypeDHinge"},
+    };
+    for (size_t k = 0; k < sizeof refused / sizeof refused[0]; k++) {
+        dJointAttach(refused[k].j, bodies[0], 0);
+        expect(ctx, cadmm_ode_step(ctx, world, bodies, 2, &c, 1, 0.01, &info),
+               CADMM_ERR_UNSUPPORTED, refused[k].name);
+        dJointDestroy(refused[k].j);
+    }
+    dContact user_contact;
+    memset(&user_contact, 0, sizeof user_contact);
+    user_contact.geom = c;
+    dJointID j = dJointCreateContact(world, 0, &user_contact);
+    dJointAttach(j, bodies[0], 0);
+    expect(ctx, cadmm_ode_step(ctx, world, bodies, 2, &c, 1, 0.01, &info), CADMM_ERR_UNSUPPORTED,
+           "contact joints made by the user are not supported");
+    dJointDestroy(j);
+
+    /* A joint to a body missing from the list, to a kinematic body, with a negative CFM. */
+    j = dJointCreateBall(world, 0);
+    dJointAttach(j, bodies[0], bodies[1]);
+    dJointSetBallAnchor(j, 1.5, 0, 0.5);
+    expect(ctx, cadmm_ode_step(ctx, world, bodies, 1, &c, 1, 0.01, &info),
+           CADMM_ERR_INVALID_VALUE, "its other body is not in the bodies list");
+    dBodySetKinematic(bodies[1]);
+    expect(ctx, cadmm_ode_step(ctx, world, bodies, 2, &c, 1, 0.01, &info), CADMM_ERR_UNSUPPORTED,
+           "touches a kinematic body");
+    dBodySetDynamic(bodies[1]);
+    dJointSetBallParam(j, dParamCFM, -1e-3);
+    expect(ctx, cadmm_ode_step(ctx, world, bodies, 2, &c, 1, 0.01, &info),
+           CADMM_ERR_INVALID_VALUE, "negative CFM");
+    dJointDestroy(j);
+
+    /* Contact surfaces (cadmm_ode_assemble_contacts): rolling friction and the other modes
+     * the problem cannot express, and a mu that is not a friction coefficient. */
+    dContact full;
+    memset(&full, 0, sizeof full);
+    full.geom = c;
+    full.surface.mu = 0.3;
+    full.surface.mode = dContactRolling;
+    full.surface.rho = full.surface.rho2 = full.surface.rhoN = 0.01;
+    expect(ctx, cadmm_ode_assemble_contacts(ctx, world, bodies, 2, &full, 1, 0.01),
+           CADMM_ERR_UNSUPPORTED,
+           "dContactRolling: rolling friction (rho, rho2, rhoN) is not supported yet");
+    full.surface.mode = dContactBounce;
+    expect(ctx, cadmm_ode_assemble_contacts(ctx, world, bodies, 2, &full, 1, 0.01),
+           CADMM_ERR_UNSUPPORTED, "dContactBounce");
+    full.surface.mode = dContactApprox1;
+    full.surface.mu = dInfinity;
+    expect(ctx, cadmm_ode_assemble_contacts(ctx, world, bodies, 2, &full, 1, 0.01),
+           CADMM_ERR_INVALID_VALUE, "surface.mu");
+    /* dContactApprox1 is accepted, and each contact keeps its own mu. */
+    full.surface.mu = 0.3;
+    cadmm_ode_problem problem;
+    cadmm_result got = cadmm_ode_assemble_contacts(ctx, world, bodies, 2, &full, 1, 0.01);
+    if (got == CADMM_OK) got = cadmm_ode_last_problem(ctx, &problem);
+    if (got != CADMM_OK || problem.n_contacts != 1 || problem.mu[0] != 0.3) {
+        printf("FAIL: a dContact with dContactApprox1 and mu 0.3: code %d, %s\n", got,
+               cadmm_ode_last_error(ctx));
+        failures++;
+    } else {
+        printf("ok: a dContact with dContactApprox1 is taken with its mu %.2g\n", problem.mu[0]);
+    }
 
     /* A valid step still works: the box rests, pushed by nothing but gravity. */
     cadmm_result rc = cadmm_ode_step(ctx, world, bodies, 2, &c, 1, 0.01, &info);

@@ -2,14 +2,15 @@
 // sequential impulse solver and prints one JSON line of figures.
 //
 //   cadmm_bullet_stack --scene tower|drop|mass-ratio-100|mass-ratio-1000|pyramid|
-//                               pendulum|simple-pendulum|big-pyramid|wall|bin|chain
+//                               pendulum|simple-pendulum|big-pyramid|wall|bin|chain|arm|ragdoll
 //                      --solver cadmm|bullet [--seconds S] [--bullet-iterations N] [--cold]
 //                      [--json] [--trace FILE.csv] [--check] [--with-hinge]
 //                      [--tolerance T] [--max-iterations N] [--check-tolerance T]
 //                      [--damping D] [--count N] [--seed N] [--time-limit S]
 //                      [--dump STEP,STEP,... --dump-dir DIR]
 //
-// --count and --seed size and vary the larger scenes (stack_scenes.h). --time-limit is the
+// --count and --seed size and vary the larger scenes (stack_scenes.h; the arm's count is
+// its payload's mass in kg). --time-limit is the
 // cadmm drop-in's budget per solveGroup (SolverOptions::timeLimit). --dump writes the
 // problem of every group solved at the given steps to DIR/SCENE-stepN-groupK.hdf5 (FCLib;
 // needs a cadmm built with CADMM_WITH_FCLIB), with either solver.
@@ -18,7 +19,9 @@
 // per failed check:
 //  - a body fell (more than a quarter of a box below or beside where it should rest) or the
 //    top body drifted 1 mm or more horizontally (stacks at rest, not the scenes in motion);
-//  - a joint opened by kJointGap or more (pendulums);
+//  - a joint opened by kJointGap or more (pendulums, the arm);
+//  - the arm's tip (its payload's centre) moved kTipDrift or more from where it started, at
+//    any step;
 //  - the simple pendulum's zero crossings or swing amplitudes left the exact pendulum's
 //    (kCrossingSlack, kAmplitudeSlack);
 //  - a contact ended a step deeper than the Baumgarte correction leaves it, by more than
@@ -29,6 +32,11 @@
 // A refused step (cadmm_bullet::Error) exits with 2. --tolerance and --max-iterations set
 // cadmm's, --damping the bodies' linear and angular damping (Bullet's, applied before the
 // solve); CTest uses them to show that the checks fire.
+//
+// The joint gap (max_joint_gap) is the largest distance between a joint's pivot as its two
+// bodies carry it, over every joint with one pivot (stack_scenes.h, jointGap) and every
+// step. The arm reports its tip's distance from where it started in mm, at the end
+// (tip_drift_mm) and the largest over the run (max_tip_drift_mm).
 #include "bullet_reference_solver.h"
 #include "cadmm_constraint_solver.h"
 #include "solution_check.h"
@@ -51,6 +59,12 @@ namespace {
 // Velocity-level joints drift in position between the ERP corrections: a swinging 1 m arm at
 // 60 Hz opens by about 2 cm with either solver. A joint that is not enforced opens by metres.
 const double kJointGap = 0.03;
+
+// The arm's motors (target velocity 0) hold its pose at the velocity level and nothing
+// restores an angle a motor let go: a solve that stops every joint leaves the tip where it
+// was (cadmm's moves it by 1e-7 mm in 5 s at tolerance 1e-8, 0.04 mm at 1e-4), a solve
+// that does not lets the arm sag, and the sag stays.
+const double kTipDrift = 1e-3;
 
 // A contact is solved at the velocity level with a Baumgarte bias: a step that starts d deep
 // ends at most (1 - erp) d deep, and one that starts apart ends touching, up to the contact
@@ -85,7 +99,8 @@ struct Args {
 [[noreturn]] void usage(const char *msg) {
   std::fprintf(stderr,
                "cadmm_bullet_stack: %s\nusage: cadmm_bullet_stack --scene tower|drop|mass-ratio-100|"
-               "mass-ratio-1000|pyramid|pendulum|simple-pendulum --solver cadmm|bullet "
+               "mass-ratio-1000|pyramid|pendulum|simple-pendulum|big-pyramid|wall|bin|chain|arm|"
+               "ragdoll --solver cadmm|bullet "
                "[--seconds S] [--bullet-iterations N] [--cold] [--json] [--trace FILE.csv] "
                "[--check] [--with-hinge] [--tolerance T] [--max-iterations N] "
                "[--check-tolerance T] [--damping D] [--count N] [--seed N] [--time-limit S] "
@@ -178,7 +193,7 @@ double percentile(std::vector<double> xs, double q) {
 
 int main(int argc, char **argv) {
   const Args args = parse(argc, argv);
-  const double h = 1.0 / 60;
+  const double h = kTimeStep;
 
   CadmmConstraintSolver *cadmm = nullptr;
   BulletReferenceSolver *bullet = nullptr;
@@ -222,6 +237,7 @@ int main(int argc, char **argv) {
 
   btRigidBody *top = w.boxes.back();
   const btVector3 top0 = top->getCenterOfMassPosition();
+  const btVector3 tip0 = w.tip ? w.tip->getCenterOfMassPosition() : btVector3(0, 0, 0);
 
   // The simple pendulum: its angle from the vertical at every step, the times it crosses the
   // vertical (linear interpolation between steps) and its largest angle between crossings.
@@ -238,7 +254,7 @@ int main(int argc, char **argv) {
   const int steps = int(std::lround(args.seconds / h));
   std::vector<double> stepMs;
   double sumIt = 0, maxIt = 0, sumMs = 0, maxMs = 0, maxPen = 0, maxDrift = 0, maxErr = 0,
-         maxGap = 0, maxExcess = 0;
+         maxGap = 0, maxExcess = 0, tipDrift = NAN, maxTipDrift = NAN;
   int unsolved = 0, newSolvers = 0;
   size_t sumContacts = 0;
   bool fell = false, errUnknown = false;
@@ -270,10 +286,11 @@ int main(int argc, char **argv) {
       if (std::hypot(d.x(), d.z()) > 0.25 || d.y() < -0.25) fell = true;
     }
     for (int j = 0; j < w.world().getNumConstraints(); ++j)
-      if (auto *p2p = dynamic_cast<btPoint2PointConstraint *>(w.world().getConstraint(j)))
-        maxGap = std::max(maxGap, double((p2p->getRigidBodyA().getWorldTransform() * p2p->getPivotInA() -
-                                          p2p->getRigidBodyB().getWorldTransform() * p2p->getPivotInB())
-                                             .length()));
+      maxGap = std::max(maxGap, jointGap(*w.world().getConstraint(j)));
+    if (w.tip) {
+      tipDrift = 1e3 * double((w.tip->getCenterOfMassPosition() - tip0).length());
+      maxTipDrift = std::isnan(maxTipDrift) ? tipDrift : std::max(maxTipDrift, tipDrift);
+    }
     if (swing) {
       const btVector3 d = top->getCenterOfMassPosition() - w.swing.pivot;
       const double now = std::atan2(double(d.x()), double(-d.y()));
@@ -329,6 +346,8 @@ int main(int argc, char **argv) {
       {"unsolved_steps", std::to_string(unsolved)},
       {"new_solvers", std::to_string(newSolvers)},
       {"max_joint_gap", number(maxGap)},
+      {"tip_drift_mm", number(tipDrift)},
+      {"max_tip_drift_mm", number(maxTipDrift)},
       {"max_checked_error", cadmm ? number(maxChecked) : "null"},
       {"pendulum_period", number(period)},
       {"crossings", swing ? std::to_string(crossings.size()) : "null"},
@@ -344,11 +363,15 @@ int main(int argc, char **argv) {
   if (args.check) {
     std::vector<std::string> failed;
     const bool pendulum = args.scene == "pendulum" || swing;
-    if (pendulum && !(maxGap < kJointGap))
+    const bool stack = !pendulum && !w.inMotion && !w.tip;
+    if ((pendulum || w.tip) && !(maxGap < kJointGap))
       failed.push_back("the joint opened by " + shown(maxGap) + " m");
-    if (!pendulum && !w.inMotion && fell) failed.push_back("a body fell");
-    if (!pendulum && !w.inMotion && !(maxDrift < 1e-3))
+    if (stack && fell) failed.push_back("a body fell");
+    if (stack && !(maxDrift < 1e-3))
       failed.push_back("the top body drifted " + shown(maxDrift) + " m");
+    if (w.tip && !(maxTipDrift < 1e3 * kTipDrift))
+      failed.push_back("the arm's tip drifted " + shown(maxTipDrift) +
+                       " mm from where it started (" + shown(tipDrift) + " mm at the end)");
     if (swing) {
       if (crossings.size() < std::max<size_t>(expectedCrossings, 1))
         failed.push_back("the pendulum crossed the vertical " + std::to_string(crossings.size()) +

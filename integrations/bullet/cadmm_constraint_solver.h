@@ -8,9 +8,9 @@
 // What it does per group: the global problem of contact_problem.h (Baumgarte correction of
 // penetration at rate m_erp2, no split impulse), one cadmm solver kept alive across steps
 // (numeric refactorization only while the sizes and sparsity patterns stay the same), warm
-// start from the impulses stored in the manifold points (not for a group with a bounded
-// joint row: solveGroup), impulses written back to the points, constraint impulses to the
-// constraints and velocities to the bodies.
+// start from the impulses stored in the manifold points and the bodies' velocities (the
+// constraint rows start from zero), impulses written back to the points, constraint
+// impulses to the constraints and velocities to the bodies.
 //
 // Constraints: each enabled one through the rows it hands Bullet's own solver (buildJacobian,
 // getInfo1, getInfo2, as btSequentialImpulseConstraintSolver::convertJoint), so every type

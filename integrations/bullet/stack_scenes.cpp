@@ -51,6 +51,12 @@ btRigidBody *StackWorld::addSphere(double rad, double mass, const btVector3 &p) 
                  btTransform(btQuaternion::getIdentity(), p));
 }
 
+btRigidBody *StackWorld::addCapsule(double rad, double height, double mass, const btTransform &at) {
+  btRigidBody *b = addBody(std::make_unique<btCapsuleShape>(rad, height), mass, at);
+  boxes.push_back(b), rest.push_back(at.getOrigin());
+  return b;
+}
+
 void StackWorld::addJoint(std::unique_ptr<btTypedConstraint> j) {
   joints_.push_back(std::move(j));
   world_->addConstraint(joints_.back().get(), true);
@@ -128,6 +134,121 @@ void buildChain(StackWorld &w, int count) {
   w.inMotion = true;
 }
 
+// A 7-joint arm held out along x, 3 m up (held, it touches nothing), the payload welded to
+// its last link: at 100 kg, 100 times the lightest link, the first joint carries 2 250 N m.
+// The motors (target velocity 0) are all that holds the pose: a motor only stops its
+// joint's rotation, nothing pulls it back, so whatever a solve leaves unstopped stays as sag.
+void buildArm(StackWorld &w, double payloadMass) {
+  const double masses[] = {2, 2, 1.5, 1.5, 1, 1, 1};  // kg, heavier near the base
+  const int links = 7;
+  const double length = 0.3, payloadHalf = 0.1;
+  // Twice the static torque: a motor at its max impulse while holding would give way.
+  const double margin = 2;
+  const btVector3 base(0, 3, 0), half(length / 2, length / 2, length / 2), end(length / 2, 0, 0);
+  std::vector<btRigidBody *> bodies;
+  std::vector<btHingeConstraint *> hinges;
+  for (int k = 0; k < links; ++k) {
+    btRigidBody *b = w.addBox(half, masses[k], base + btVector3(length * (k + 0.5), 0, 0));
+    // Alternating axes: the pitch joints (z) carry gravity's torque in this pose, the yaw
+    // joints (y) none, but they must hold the arm's bending.
+    const btVector3 axis = k % 2 ? btVector3(0, 1, 0) : btVector3(0, 0, 1);
+    auto j = bodies.empty()
+                 ? std::make_unique<btHingeConstraint>(*b, -end, axis)  // to the world
+                 : std::make_unique<btHingeConstraint>(*bodies.back(), *b, end, -end, axis, axis);
+    j->setLimit(-2 * SIMD_PI / 3, 2 * SIMD_PI / 3);
+    hinges.push_back(j.get());
+    w.addJoint(std::move(j));
+    bodies.push_back(b);
+  }
+  btRigidBody *payload = w.addBox(btVector3(1, 1, 1) * payloadHalf, payloadMass,
+                                  base + btVector3(length * links + payloadHalf, 0, 0));
+  w.addJoint(std::make_unique<btFixedConstraint>(
+      *bodies.back(), *payload, btTransform(btQuaternion::getIdentity(), end),
+      btTransform(btQuaternion::getIdentity(), btVector3(-payloadHalf, 0, 0))));
+  bodies.push_back(payload);
+  w.tip = payload;
+
+  // Each motor's max impulse over a step from the static torque of everything beyond its
+  // joint: its magnitude, not its component along the axis, which is zero for the yaw
+  // joints (a motor with nothing to give would leave its joint free).
+  const btVector3 g = w.world().getGravity();
+  for (int k = 0; k < links; ++k) {
+    const btVector3 pivot = base + btVector3(length * k, 0, 0);
+    btVector3 torque(0, 0, 0);
+    for (size_t i = size_t(k); i < bodies.size(); ++i)
+      torque += (bodies[i]->getCenterOfMassPosition() - pivot).cross(g / bodies[i]->getInvMass());
+    hinges[size_t(k)]->enableAngularMotor(true, 0, margin * torque.length() * kTimeStep);
+  }
+}
+
+// A ragdoll of 71 kg, 1.76 m, built standing (feet at y = 0, facing +z, arms down, every
+// joint's frames aligned, so no joint starts open or at a cone's limit), then placed leaning
+// forward at the edge of a landing 2.2 m high with 10 steps below it. It falls over the
+// edge and tumbles down: contacts come and go, limits engage and release on every joint.
+void buildRagdoll(StackWorld &w) {
+  const int steps = 10;
+  const double rise = 0.2, tread = 0.3;
+  for (int k = 0; k <= steps; ++k) {  // k = 0: the landing, 1.2 m deep
+    const double top = rise * (steps + 1 - k), back = k ? tread * (k - 1) : -1.2,
+                 front = tread * k;
+    w.addBox(btVector3(1, top / 2, (front - back) / 2), 0,
+             btVector3(0, top / 2, (front + back) / 2));
+  }
+
+  // Leaning 30 degrees forward, turned 0.1 rad so that it does not fall symmetrically,
+  // feet 5 cm above the landing and 30 cm behind its edge, moving forward at 1 m/s.
+  const btTransform place(btQuaternion(0.1, 0.5, 0),  // yaw, pitch: +x turns the head to +z
+                          btVector3(0, rise * (steps + 1) + 0.05, -0.3));
+  struct Part {
+    btRigidBody *body;
+    btVector3 centre;  // built standing
+  };
+  // A capsule along y, `length` from end to end.
+  auto capsule = [&](double rad, double length, double mass, const btVector3 &c) {
+    const btTransform at = place * btTransform(btQuaternion::getIdentity(), c);
+    return Part{w.addCapsule(rad, length - 2 * rad, mass, at), c};
+  };
+  const Part pelvis{w.addBox(btVector3(0.16, 0.1, 0.1), 10, place * btVector3(0, 1, 0),
+                             place.getRotation()),
+                    btVector3(0, 1, 0)};
+  const Part spine = capsule(0.13, 0.4, 22, btVector3(0, 1.3, 0));
+  const Part head = capsule(0.1, 0.26, 5, btVector3(0, 1.63, 0));
+  // Twist axis (the frames' x) along the limb, y: the same frames in both bodies.
+  const btQuaternion along(btVector3(0, 0, 1), SIMD_HALF_PI);
+  auto cone = [&](const Part &a, const Part &b, const btVector3 &pivot, double swing,
+                  double twist) {
+    auto j = std::make_unique<btConeTwistConstraint>(*a.body, *b.body,
+                                                     btTransform(along, pivot - a.centre),
+                                                     btTransform(along, pivot - b.centre));
+    j->setLimit(swing, swing, twist);
+    w.addJoint(std::move(j));
+  };
+  // Knees and elbows turn about x; the hinge angle is minus B's turn about the axis, so a
+  // knee (foot backwards, to -z) bends to negative angles, an elbow (hand forwards) to
+  // positive ones. Both start straight, at a limit.
+  auto hinge = [&](const Part &a, const Part &b, const btVector3 &pivot, double lo, double hi) {
+    auto j = std::make_unique<btHingeConstraint>(*a.body, *b.body, pivot - a.centre,
+                                                 pivot - b.centre, btVector3(1, 0, 0),
+                                                 btVector3(1, 0, 0));
+    j->setLimit(lo, hi);
+    w.addJoint(std::move(j));
+  };
+  cone(pelvis, spine, btVector3(0, 1.1, 0), 0.5, 0.3);                // lower back
+  cone(spine, head, btVector3(0, 1.5, 0), SIMD_PI / 4, SIMD_PI / 3);  // neck
+  for (double side : {-1.0, 1.0}) {
+    const Part thigh = capsule(0.07, 0.4, 9, btVector3(0.09 * side, 0.7, 0));
+    const Part shin = capsule(0.05, 0.46, 4.5, btVector3(0.09 * side, 0.27, 0));  // with the foot
+    const Part upperArm = capsule(0.05, 0.3, 2, btVector3(0.22 * side, 1.3, 0));
+    const Part forearm = capsule(0.04, 0.3, 1.5, btVector3(0.22 * side, 1, 0));  // with the hand
+    cone(pelvis, thigh, btVector3(0.09 * side, 0.9, 0), SIMD_PI / 4, SIMD_PI / 8);      // hip
+    hinge(thigh, shin, btVector3(0.09 * side, 0.5, 0), -2.3, 0);                       // knee
+    cone(spine, upperArm, btVector3(0.22 * side, 1.45, 0), SIMD_HALF_PI, SIMD_PI / 4);  // shoulder
+    hinge(upperArm, forearm, btVector3(0.22 * side, 1.15, 0), 0, 2.3);                 // elbow
+  }
+  for (btRigidBody *b : w.boxes) b->setLinearVelocity(btVector3(0, 0, 1));
+  w.inMotion = true;
+}
+
 }  // namespace
 
 bool buildScene(const std::string &name, StackWorld &w, int count, unsigned seed) {
@@ -143,6 +264,10 @@ bool buildScene(const std::string &name, StackWorld &w, int count, unsigned seed
     buildBin(w, count > 0 ? count : 512, rng);
   } else if (name == "chain") {
     buildChain(w, count > 0 ? count : 20);
+  } else if (name == "arm") {
+    buildArm(w, count > 0 ? count : 100);
+  } else if (name == "ragdoll") {
+    buildRagdoll(w);
   } else if (name == "tower") {  // five boxes, masses 1, 100, 1, 100, 1 from the bottom
     for (int i = 0; i < 5; ++i) w.addBox(kCube, i % 2 ? 100 : 1, btVector3(0, 0.5 + i, 0));
   } else if (name == "drop") {  // the tower with 10 cm gaps: contacts appear as it settles
@@ -180,6 +305,24 @@ void addHinge(StackWorld &w) {
   btRigidBody &a = *w.boxes.at(0), &b = *w.boxes.at(1);
   w.addJoint(std::make_unique<btHingeConstraint>(a, b, btVector3(0, 0.5, 0), btVector3(0, -0.5, 0),
                                                  btVector3(1, 0, 0), btVector3(1, 0, 0)));
+}
+
+double jointGap(const btTypedConstraint &c) {
+  btVector3 a, b;  // the pivot in A's and in B's frame
+  if (auto *j = dynamic_cast<const btPoint2PointConstraint *>(&c))
+    a = j->getPivotInA(), b = j->getPivotInB();
+  else if (auto *j = dynamic_cast<const btHingeConstraint *>(&c))
+    a = j->getAFrame().getOrigin(), b = j->getBFrame().getOrigin();
+  else if (auto *j = dynamic_cast<const btConeTwistConstraint *>(&c))
+    a = j->getAFrame().getOrigin(), b = j->getBFrame().getOrigin();
+  else if (auto *j = dynamic_cast<const btGeneric6DofSpring2Constraint *>(&c))  // btFixedConstraint
+    a = j->getFrameOffsetA().getOrigin(), b = j->getFrameOffsetB().getOrigin();
+  else if (auto *j = dynamic_cast<const btGeneric6DofConstraint *>(&c))
+    a = j->getFrameOffsetA().getOrigin(), b = j->getFrameOffsetB().getOrigin();
+  else
+    return 0;
+  return (c.getRigidBodyA().getWorldTransform() * a - c.getRigidBodyB().getWorldTransform() * b)
+      .length();
 }
 
 }  // namespace cadmm_bullet

@@ -9,6 +9,9 @@
 
 namespace cadmm_bullet {
 
+// The step the scenes are made for (the driver's; the arm's motors are sized with it).
+constexpr double kTimeStep = 1.0 / 60;
+
 // A Bullet world that owns its parts, with the given constraint solver.
 class StackWorld {
  public:
@@ -22,6 +25,9 @@ class StackWorld {
                       const btQuaternion &q = btQuaternion::getIdentity());
   // A sphere of radius rad and the given mass centred at p (dynamic, not one of `boxes`).
   btRigidBody *addSphere(double rad, double mass, const btVector3 &p);
+  // A dynamic capsule along its local y axis (radius rad, cylinder `height` between the
+  // caps) placed at `at`; one of `boxes`, as the ragdoll's parts are its bodies.
+  btRigidBody *addCapsule(double rad, double height, double mass, const btTransform &at);
   // A joint between bodies of this world (collisions between them disabled, as usual).
   void addJoint(std::unique_ptr<btTypedConstraint> j);
   btDiscreteDynamicsWorld &world() { return *world_; }
@@ -35,7 +41,7 @@ class StackWorld {
   };
   Penetration penetration(double erp) const;
 
-  std::vector<btRigidBody *> boxes;  // the dynamic boxes, bottom first
+  std::vector<btRigidBody *> boxes;  // the dynamic boxes (and capsules), bottom first
   std::vector<btVector3> rest;       // where each box should come to rest
 
   // Scene "simple-pendulum": a cube of side `side` hanging by a ball joint at `pivot`, its
@@ -46,9 +52,12 @@ class StackWorld {
     double length = 0, amplitude = 0, side = 0;
   } swing;
 
-  // Scenes in motion ("wall", "bin", "chain"): bodies fall, topple and collide, so the
-  // at-rest checks (fell, drift) do not apply.
+  // Scenes in motion ("wall", "bin", "chain", "ragdoll"): bodies fall, topple and collide,
+  // so the at-rest checks (fell, drift) do not apply.
   bool inMotion = false;
+  // Scene "arm": the payload at its tip, which the motors hold where it started (the
+  // driver reports its drift; the stacks' checks do not apply).
+  btRigidBody *tip = nullptr;
   // Scene "wall": a ball of this radius and mass thrown from `from` at `velocity` (m/s) once
   // the run reaches `time` seconds (radius 0: no ball).
   struct Throw {
@@ -81,10 +90,23 @@ class StackWorld {
 //  - "bin": count (512) boxes of 1 to 5 kg and 24 to 36 cm, dropped in layers into a 3 x 3 m
 //    bin, sizes, masses and tilts drawn from seed;
 //  - "chain": count (20) boxes of 30 cm on btPoint2PointConstraint joints, hanging from a
-//    fixed point, released horizontal, swinging into a standing box.
+//    fixed point, released horizontal, swinging into a standing box;
+//  - "arm": a serial arm of 7 links (30 cm boxes, 2 to 1 kg from the base out) on
+//    btHingeConstraint joints about z, y, z, ... (limits +-120 degrees, motors at target
+//    velocity 0 with twice the static torque as max impulse), its first joint fixed to the
+//    world 3 m up, held horizontal along x with a box of count kg (100) welded to its tip
+//    (btFixedConstraint): StackWorld::tip;
+//  - "ragdoll": a 71 kg ragdoll of 11 parts (a box pelvis, capsules for the rest) on
+//    btConeTwistConstraint (lower back, neck, hips, shoulders) and btHingeConstraint (knees,
+//    elbows) joints with limits, dropped leaning forward at the top of 10 static steps (20 cm
+//    high, 30 cm deep), down which it tumbles.
 // False for an unknown name.
 bool buildScene(const std::string &name, StackWorld &w, int count = 0, unsigned seed = 1);
 // Adds a hinge between the two lowest boxes (about x, at their shared face).
 void addHinge(StackWorld &w);
+// How far apart the joint's pivot is as each of its two bodies carries it (m): its position
+// error. For the joints with one pivot (point to point, hinge, cone twist, the 6-DOF family
+// and btFixedConstraint); 0 for the others.
+double jointGap(const btTypedConstraint &c);
 
 }  // namespace cadmm_bullet

@@ -8,10 +8,12 @@
 # slide: the launched box stops where Coulomb's law says; every step solved, every answer
 # re-measured by the driver's own error measure within 1e-8, no contact deeper than 1.5 mm),
 # the larger scenes (big-pyramid at rest, wall and bin in motion) smaller than their defaults
-# at an engine's tolerance of 1e-4, ODE's two solvers once each (they must run), and the
-# ode_check_* negative controls: runs where one check must fail with its own message
-# (cmake/ExpectCheckFailure.cmake), ODE QuickStep letting the 1000:1 stack collapse among
-# them.
+# at an engine's tolerance of 1e-4, ODE's two solvers once each (they must run),
+# ode_vehicle_cadmm (a car on four hinge-2 wheels driven over a bump: every step solved and
+# re-measured within 1e-8, all wheels over the bump, no wheel joint opened by 1 cm or
+# turned by 0.01 rad), and the ode_check_* negative controls: runs where one check must
+# fail with its own message (cmake/ExpectCheckFailure.cmake), ODE QuickStep letting the
+# 1000:1 stack collapse among them.
 find_package(PkgConfig QUIET)
 if(PKG_CONFIG_FOUND)
   pkg_check_modules(CADMM_ODE QUIET ode)
@@ -73,8 +75,14 @@ if(CADMM_ODE_FOUND)
             --json --check)
   ode_stack(cadmm_bin 0 --scene bin --count 64 --seed 3 --solver cadmm --seconds 1.5
             --tolerance 1e-4 --json --check)
+  # The vehicle (integrations/ode/scenes.c): 2 s take all four wheels over the bump (at
+  # 1.65 s) and the rear ones through their slip coming off it.
+  ode_run(ode_vehicle_cadmm cadmm_ode_stack 0 --scene vehicle --solver cadmm --seconds 2 --json
+          --check)
   ode_stack(quickstep_runs 0 --scene pyramid --solver ode-quickstep --seconds 1 --json)
   ode_stack(step_runs 0 --scene mass-ratio-100 --solver ode-step --seconds 1 --json)
+  # ODE's joint multipliers recovered from its hinge-2 feedback (stack.c) on the way.
+  ode_stack(quickstep_vehicle_runs 0 --scene vehicle --solver ode-quickstep --seconds 2 --json)
   ode_check_fails(ode_check_fails_quickstep EXPECT "check failed: a body fell"
     ARGS --scene mass-ratio-1000 --solver ode-quickstep --seconds 2 --json --check)
   # One iteration per step, cold: steps end unsolved (and more fails).
@@ -88,6 +96,11 @@ if(CADMM_ODE_FOUND)
   ode_check_fails(ode_check_catches_penetration EXPECT "check failed: a contact penetrated"
     ARGS --scene tower --solver cadmm --seconds 0.5 --check --cold --tolerance 0.1
          --check-tolerance 1)
+  # The vehicle on ice (mu 0.1): its rear wheels spin, it is 1 m along at 2 s, short of the
+  # bump.
+  ode_check_fails(ode_check_catches_vehicle_stuck
+    EXPECT "check failed: the vehicle did not get over the bump"
+    ARGS --scene vehicle --solver cadmm --seconds 2 --check --mu 0.1)
   # The solver given mu 0.45 where the scene's closed form has 0.5: the box slides 15 cm too far.
   ode_check_fails(ode_check_catches_slide EXPECT "check failed: the box slid .* Coulomb's law says"
     ARGS --scene slide --solver cadmm --seconds 1 --check --mu 0.45)

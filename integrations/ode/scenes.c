@@ -6,7 +6,7 @@
 #include <string.h>
 
 const char *const scene_names =
-    "tower|mass-ratio-100|mass-ratio-1000|pyramid|slide|big-pyramid|wall|bin";
+    "tower|mass-ratio-100|mass-ratio-1000|pyramid|slide|big-pyramid|wall|bin|vehicle";
 
 static const double side = 0.5; /* the stacks' boxes are 0.5 m cubes */
 static const double gravity = 9.81;
@@ -136,12 +136,84 @@ static void bin(scene *s, long count, rng *r) {
     s->in_motion = 1;
 }
 
-enum { TOWER = 1, RATIO100, RATIO1000, PYRAMID, SLIDE, BIG_PYRAMID, WALL, BIN };
+/* A car at full scale, ODE's demo_buggy grown to road size: a 1200 kg chassis box (4 x 1.7
+ * x 0.5 m) on four 20 kg sphere wheels of radius 0.35 m (a 60:1 mass ratio across every
+ * joint), wheelbase 2.6 m, track 1.7 m, each wheel on a dJointHinge2 anchored at its
+ * center: axis 1 vertical on the chassis (steering, and the suspension along it), axis 2
+ * along y on the wheel (spin). Spheres, not cylinders: ODE collides them with the plane
+ * and the capsule as one contact each, and their inertia is isotropic, so the gyroscopic
+ * term (implicit in ODE 0.16's steppers, explicit in cadmm_ode) is zero on the wheels.
+ *
+ * Suspension: a spring of 30 kN/m and a damper of 2.5 kN s/m per wheel (about 1.6 Hz and
+ * 0.4 of critical damping on a quarter of the chassis), as ODE's ERP/CFM at this step:
+ * ERP = h kp / (h kp + kd), CFM = 1 / (h kp + kd). The car starts at rest on it: the joints
+ * are set with the chassis m g / (4 kp) = 9.8 cm higher, where the springs are at rest, and
+ * the chassis then moved down to 0.55 m, so that they carry it from the first step. (Built
+ * unloaded instead, the chassis sinks 10 cm over the first half second while the wheels,
+ * hardly pressed onto the ground yet, spin under the motors.)
+ *
+ * Steering is locked by stops lo = hi = 0 on all four wheels (the front ones are the
+ * steered axle of a car; the rear ones must be held too, or they would steer freely). The
+ * rear wheels are driven by the hinge-2 motor on axis 2 towards 6 m/s (Vel2 = -v / r:
+ * ODE's motor holds body 1's spin minus body 2's, and a wheel rolling along +x spins about
+ * +y) with at most 800 N m each: 3.6 m/s^2 from rest, within the 1 g of grip mu 1 gives the
+ * rear axle. It starts at rest, its front wheels 1.7 m before a 10 cm bump, half a capsule
+ * of radius 0.1 m across the road: they reach it at 0.95 s at 3.3 m/s, the rear ones at
+ * 1.6 s at 5.2 m/s, and it cruises at 6 m/s from 2.1 s (24.3 m in 5 s). */
+#define WHEEL_R 0.35
+#define VEHICLE_SPEED 6.0
+static void vehicle(scene *s) {
+    const double he[3] = {2.0, 0.85, 0.25}, chassis_mass = 1200, wheel_mass = 20;
+    const double axle = 1.3, track = 0.85, chassis_z = 0.55;
+    const double h = 1.0 / 60, kp = 30000, kd = 2500, sag = chassis_mass * gravity / (4 * kp);
+    add_box(s, chassis_mass, he, 0, 0, chassis_z + sag, NULL);
+    dBodyID chassis = s->bodies[0];
+    static const double corner[4][2] = {{1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
+    for (int k = 0; k < 4; k++) {
+        dMass m;
+        dMassSetSphereTotal(&m, wheel_mass, WHEEL_R);
+        /* Touching the ground within the surface layer, as the stacks' boxes start. */
+        const double p[3] = {axle * corner[k][0], track * corner[k][1], WHEEL_R - sink};
+        for (int d = 0; d < 3; d++) s->half[s->n][d] = WHEEL_R;
+        dBodyID w = add_body(s, dCreateSphere(s->space, WHEEL_R), &m, p, NULL);
+        dJointID j = dJointCreateHinge2(s->world, 0);
+        dJointAttach(j, chassis, w);
+        dJointSetHinge2Anchor(j, p[0], p[1], p[2]);
+        const dReal a1[3] = {0, 0, 1}, a2[3] = {0, 1, 0};
+        dJointSetHinge2Axes(j, a1, a2);
+        dJointSetHinge2Param(j, dParamLoStop, 0);
+        dJointSetHinge2Param(j, dParamHiStop, 0);
+        dJointSetHinge2Param(j, dParamSuspensionERP, h * kp / (h * kp + kd));
+        dJointSetHinge2Param(j, dParamSuspensionCFM, 1.0 / (h * kp + kd));
+        if (corner[k][0] < 0) {
+            dJointSetHinge2Param(j, dParamVel2, -VEHICLE_SPEED / WHEEL_R);
+            dJointSetHinge2Param(j, dParamFMax2, 800);
+        }
+        dJointSetFeedback(j, &s->joint_feedback[k]);
+        s->joints[s->n_joints++] = j;
+    }
+    /* The joints keep their anchors in the bodies' frames: moved down, the chassis' anchors
+     * sit `sag` below the wheels', the springs' preload. */
+    dBodySetPosition(chassis, 0, 0, chassis_z);
+    s->start[0][2] = chassis_z;
+    s->wheel_radius = WHEEL_R;
+    s->bump_radius = 0.1;
+    s->bump_x = axle + 1.7 + s->bump_radius; /* 1.7 m of road before the bump's foot */
+    dGeomID bump = dCreateCapsule(s->space, s->bump_radius, 4.0);
+    dMatrix3 R;
+    dRFromAxisAndAngle(R, 1, 0, 0, 1.5707963267948966); /* the capsule's axis (its z) along y */
+    dGeomSetRotation(bump, R);
+    dGeomSetPosition(bump, s->bump_x, 0, 0);
+    s->mu = 1.0;
+    s->in_motion = 1;
+}
+
+enum { TOWER = 1, RATIO100, RATIO1000, PYRAMID, SLIDE, BIG_PYRAMID, WALL, BIN, VEHICLE };
 
 static int kind_of(const char *name) {
     static const char *const names[] = {"tower",   "mass-ratio-100", "mass-ratio-1000",
                                         "pyramid", "slide",          "big-pyramid",
-                                        "wall",    "bin"};
+                                        "wall",    "bin",            "vehicle"};
     for (int k = 0; k < (int)(sizeof names / sizeof names[0]); k++)
         if (!strcmp(name, names[k])) return k + 1;
     return 0;
@@ -162,6 +234,7 @@ int scene_build(scene *s, const char *name, long count, unsigned long seed) {
                  : kind == BIG_PYRAMID ? (size_t)(base * (base + 1) / 2)
                  : kind == WALL        ? (size_t)(count > 0 ? count : 100) + 1 /* the ball */
                  : kind == BIN         ? (size_t)(count > 0 ? count : 512)
+                 : kind == VEHICLE     ? 5
                                        : 2;
     s->bodies = malloc(cap * sizeof *s->bodies);
     s->geoms = malloc(cap * sizeof *s->geoms);
@@ -175,11 +248,12 @@ int scene_build(scene *s, const char *name, long count, unsigned long seed) {
     s->world = dWorldCreate();
     /* The small stacks collide every pair (their contact order as it always was); the larger
      * scenes use ODE's multi-resolution hash grid. */
-    s->space = kind < BIG_PYRAMID ? dSimpleSpaceCreate(0) : dHashSpaceCreate(0);
+    s->space = kind < BIG_PYRAMID || kind == VEHICLE ? dSimpleSpaceCreate(0) : dHashSpaceCreate(0);
     dWorldSetGravity(s->world, 0, 0, -gravity);
     /* Contacts may sink 1 mm before being pushed out, so resting contacts persist. */
     dWorldSetContactSurfaceLayer(s->world, 0.001);
     s->ground = dCreatePlane(s->space, 0, 0, 1, 0);
+    s->mu = 0.5;
     rng r = {(uint64_t)seed};
     if (kind == TOWER) column(s, tower, 5);
     if (kind == RATIO100) column(s, ratio100, 2);
@@ -194,7 +268,9 @@ int scene_build(scene *s, const char *name, long count, unsigned long seed) {
     if (kind == BIG_PYRAMID) pyramid(s, (int)base);
     if (kind == WALL) wall(s, count > 0 ? count : 100, &r);
     if (kind == BIN) bin(s, count > 0 ? count : 512, &r);
-    s->top = s->n - 1;
+    if (kind == VEHICLE) vehicle(s);
+    /* The vehicle reports its chassis. */
+    s->top = kind == VEHICLE ? 0 : s->n - 1;
     return 0;
 }
 

@@ -1,4 +1,4 @@
-/* The test scenes of cadmm_ode_stack: boxes on a static ground plane, z up. */
+/* The test scenes of cadmm_ode_stack: boxes (and a vehicle) on a static ground plane, z up. */
 #ifndef CADMM_ODE_SCENES_H
 #define CADMM_ODE_SCENES_H
 
@@ -30,11 +30,23 @@ typedef struct scene {
         size_t step;
         double radius, mass, from[3], velocity[3];
     } ball;
+    double mu; /* the friction coefficient of every contact (0.5; the vehicle's tyres 1) */
+    /* "vehicle": the hinge-2 joints from the chassis (body 0) to wheel k (body k + 1: front
+     * left, front right, rear left, rear right), each with its feedback (set, so that ODE's
+     * solvers hand back their joint forces), the wheels' radius, and the bump: a static
+     * capsule across the road (along y) of radius bump_radius, its axis at x = bump_x on
+     * the ground. n_joints is 0 for the other scenes. */
+    size_t n_joints;
+    dJointID joints[4];
+    dJointFeedback joint_feedback[4];
+    double wheel_radius, bump_x, bump_radius;
 } scene;
 
 /* Builds "tower", "mass-ratio-100", "mass-ratio-1000", "pyramid", "slide" (one box on the
- * ground launched along x at `launch`), or one of the scenes sized by `count` (0: its
- * default) and varied by `seed`:
+ * ground launched along x at `launch`), "vehicle" (a car of 1280 kg on four hinge-2 wheels,
+ * the rear ones driven, starting at rest with its front wheels 1.7 m before a 10 cm bump;
+ * scenes.c gives its dimensions), or one of the scenes sized by `count` (0: its default)
+ * and varied by `seed`:
  *  - "big-pyramid": rows of count (15), count - 1, ..., 1 unit-mass boxes (120), 5 cm apart
  *    in a row, each resting on two below;
  *  - "wall": count (100) bricks of 0.4 x 0.2 x 0.2 m and 2 kg in running bond, rows of 10

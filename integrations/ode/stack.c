@@ -3,19 +3,23 @@
  * impulses from cadmm (cadmm_ode.h) or from ODE's own solvers, printing one summary line.
  *
  *   cadmm_ode_stack --scene tower|mass-ratio-100|mass-ratio-1000|pyramid|slide|
- *                           big-pyramid|wall|bin
+ *                           big-pyramid|wall|bin|vehicle
  *                   --solver cadmm|ode-quickstep|ode-step --seconds S
  *                   [--json] [--trace FILE.csv] [--cold] [--check] [--count N] [--seed N]
  *                   [--tolerance T] [--max-iterations N] [--check-tolerance T] [--mu M]
- *                   [--time-limit S]
+ *                   [--time-limit S] [--ode-iterations N]
  *
- * --count and --seed size and vary big-pyramid, wall and bin (scenes.h).
+ * --count and --seed size and vary big-pyramid, wall and bin (scenes.h). --ode-iterations
+ * sets dWorldQuickStep's iterations (dWorldSetQuickStepNumIterations; ODE's default 20).
  *
  * --check exits with 1 when the scene failed, after one "check failed: ..." line per failed
  * check on stderr:
  *  - stacks: a body fell, or the top body drifted 1 mm or more;
  *  - slide: the box did not stop, or stopped farther than SLIDE_SLACK from v0^2 / (2 mu g)
- *    (mu = MU, the scene's friction);
+ *    (mu the scene's friction, 0.5);
+ *  - vehicle: a wheel did not get over the bump, a hinge-2 opened across its suspension
+ *    axis by VEHICLE_MAX_GAP or more, or turned its axes VEHICLE_MAX_ANGLE or more off
+ *    (steering off its lock at 0, or axis 2 off square to axis 1);
  *  - a contact deeper than MAX_DEPTH (ODE's contact depths after every step; not for the
  *    scenes in motion, wall and bin, whose falling and tumbling bodies land up to a step's
  *    travel deep and whose bin starts with tilted neighbors overlapping by up to 12 cm:
@@ -26,13 +30,15 @@
  * 2 means bad arguments or a failed call. --time-limit is cadmm's budget per step in
  * seconds (cadmm_ode_options.time_limit; 0, the default, for none).
  * --tolerance and --max-iterations set cadmm's, --mu
- * the friction coefficient handed to the solvers (default MU); CTest uses them to show that
- * the checks fire.
+ * the friction coefficient handed to the solvers (default the scene's: 0.5, the vehicle's
+ * 1); CTest uses them to show that the checks fire.
  *
- * ODE's solvers get contact joints with mu 0.5 and dContactApprox1 (friction pyramid whose
- * bound scales with the normal force), default iteration counts, ERP and CFM. Their
- * impulses (joint feedback forces times h) are measured with cadmm's error measure on the
- * same problem cadmm solves, so max_error compares like with like.
+ * ODE's solvers get contact joints with that mu and dContactApprox1 (friction pyramid whose
+ * bound scales with the normal force), default ERP and CFM and iterations unless
+ * --ode-iterations. Their impulses (contact joint feedback forces times h) are measured
+ * with cadmm's error measure on the same problem cadmm solves, so max_error compares like
+ * with like; the vehicle's joint multipliers are recovered from its hinge-2 joints'
+ * feedback (ode_joint_multipliers), cadmm's are its own.
  */
 #include "cadmm_ode.h"
 #include "check.h"
@@ -45,7 +51,6 @@
 #include <time.h>
 
 #define STEP (1.0 / 60.0)
-#define MU 0.5
 #define MAX_CONTACTS_PER_PAIR 8
 #define GRAVITY 9.81
 
@@ -62,13 +67,23 @@
  * the stop by 5 to 11 cm from Coulomb's. */
 #define SLIDE_SLACK(v0) ((v0) * STEP / 2 + 0.01)
 
+/* The vehicle's joints hold velocities (ERP 0.2 takes back a fifth of a position error a
+ * step), so they open while the rear wheels come off the bump and the chassis pitches on
+ * compressed springs: 3.15 mm at 1.67 s with cadmm at 1e-8 and with dWorldStep's exact
+ * solve alike (the joint rows' drift, not a solver's; 3.3 mm with QuickStep; see
+ * docs/perf/engine-vehicle-2026-11-27). The bound is 3 times that. The axes stay square
+ * and the steering at its lock within 1e-15 rad under a converged solve (5e-4 rad with
+ * QuickStep): 0.01 rad is a wheel visibly turned off. */
+#define VEHICLE_MAX_GAP 0.01
+#define VEHICLE_MAX_ANGLE 0.01
+
 typedef enum { SOLVER_CADMM, SOLVER_QUICKSTEP, SOLVER_STEP } solver_kind;
 
 typedef struct options {
     const char *scene, *trace;
     solver_kind solver;
     double seconds, tolerance, check_tolerance, mu, time_limit;
-    long max_iterations, count;
+    long max_iterations, count, ode_iterations;
     unsigned long seed;
     int json, cold, check;
 } options;
@@ -85,6 +100,12 @@ typedef struct summary {
     double iterations_sum, max_iterations, solve_ms_sum, max_solve_ms, cpu_ms_sum, max_cpu_ms;
     double max_penetration, max_drift, max_error, max_checked_error;
     int fell;
+    /* The vehicle (observe_vehicle): its joints' largest gap across the suspension axis,
+     * suspension travel along it, axes' error and steering angle; the chassis' lowest and
+     * highest center, largest pitch (nose up or down) and roll, overall and while a wheel is
+     * on the bump; the time at which the last wheel passed the bump (NAN: not yet). */
+    double max_joint_gap, max_suspension_travel, max_axis_error, max_steer;
+    double min_z, max_z, max_pitch, max_roll, bump_min_z, bump_max_z, bump_max_pitch, over_time;
 } summary;
 
 static double clock_ms(clockid_t clock) {
@@ -109,13 +130,15 @@ static int usage(const char *why) {
             "usage: cadmm_ode_stack --scene %s --solver cadmm|ode-quickstep|ode-step\n"
             "                       --seconds S [--json] [--trace FILE.csv] [--cold] [--check]\n"
             "                       [--count N] [--seed N] [--tolerance T] [--max-iterations N]\n"
-            "                       [--check-tolerance T] [--mu M] [--time-limit S]\n",
+            "                       [--check-tolerance T] [--mu M] [--time-limit S]\n"
+            "                       [--ode-iterations N]\n",
             why, scene_names);
     return 2;
 }
 
 static int parse(int argc, char **argv, options *o) {
-    *o = (options){.solver = SOLVER_CADMM, .seconds = -1, .tolerance = 1e-8, .mu = MU, .seed = 1};
+    /* mu -1: the scene's. */
+    *o = (options){.solver = SOLVER_CADMM, .seconds = -1, .tolerance = 1e-8, .mu = -1, .seed = 1};
     const char *solver = NULL;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -161,6 +184,11 @@ static int parse(int argc, char **argv, options *o) {
             o->max_iterations = strtol(argv[++i], &end, 10);
             if (*end || o->max_iterations < 1 || o->max_iterations > 1000000000)
                 return usage("--max-iterations needs a positive integer");
+        } else if (!strcmp(a, "--ode-iterations") && has_value) {
+            char *end;
+            o->ode_iterations = strtol(argv[++i], &end, 10);
+            if (*end || o->ode_iterations < 1 || o->ode_iterations > 1000000)
+                return usage("--ode-iterations needs a positive integer");
         } else {
             char why[256];
             snprintf(why, sizeof why, "unknown argument or missing value: %s", a);
@@ -177,10 +205,13 @@ static int parse(int argc, char **argv, options *o) {
     return 0;
 }
 
-/* dSpaceCollide callback: every contact point of a pair, the moving geom first. */
+/* dSpaceCollide callback: every contact point of a pair, the moving geom first. Bodies
+ * held together by a joint do not collide (the vehicle's wheels overlap its chassis). */
 static void near_callback(void *data, dGeomID o1, dGeomID o2) {
     contact_list *list = data;
-    if (!dGeomGetBody(o1) && !dGeomGetBody(o2)) return;
+    dBodyID b1 = dGeomGetBody(o1), b2 = dGeomGetBody(o2);
+    if (!b1 && !b2) return;
+    if (b1 && b2 && dAreConnectedExcluding(b1, b2, dJointTypeContact)) return;
     if (list->n + MAX_CONTACTS_PER_PAIR > list->cap) {
         size_t cap = 2 * list->cap + MAX_CONTACTS_PER_PAIR;
         dContactGeom *g = realloc(list->geoms, cap * sizeof *g);
@@ -233,6 +264,120 @@ static void ode_step(const scene *s, const contact_list *cl, solver_kind kind, d
         r[3 * c + 2] = STEP * (f[0] * t2[0] + f[1] * t2[1] + f[2] * t2[2]);
     }
     dJointGroupEmpty(group);
+}
+
+/* The problem's index (0-based, 6 unknowns each) of scene body b; p->n / 6 when absent. */
+static size_t problem_body(const scene *s, const cadmm_ode_problem *p, dBodyID b) {
+    for (size_t k = 0; k < p->n / 6; k++)
+        if (s->bodies[p->body_index[k]] == b) return k;
+    return p->n / 6;
+}
+
+/* ODE's multipliers of the scene's joints' rows (lambda, p->n_joint_rows of them), from
+ * their feedback after ODE's step. ODE fills a joint's feedback with J^T F on each body (F
+ * its rows' forces), and cadmm_ode writes the same rows J as G's columns, so
+ * G_j lambda_j = h (f1, t1, f2, t2) holds with ODE's own lambda_j = F h: the normal
+ * equations of those 12 equations (a joint has at most 6 rows, independent) give it back.
+ * Rows of joints that are not the scene's stay 0. 0, or -1 if a joint has too many rows. */
+static int ode_joint_multipliers(const scene *s, const cadmm_ode *ctx,
+                                 const cadmm_ode_problem *p, double *lambda) {
+    enum { MAX_ROWS = 8 };
+    for (size_t k = 0; k < p->n_joint_rows; k++) lambda[k] = 0.0;
+    for (size_t j = 0; j < s->n_joints; j++) {
+        size_t first = 0, count = 0;
+        if (cadmm_ode_joint_rows(ctx, s->joints[j], &first, &count) != CADMM_OK) return -1;
+        if (count == 0) continue;
+        if (count > MAX_ROWS) return -1;
+        const dJointFeedback *fb = &s->joint_feedback[j];
+        size_t k1 = problem_body(s, p, dJointGetBody(s->joints[j], 0)),
+               k2 = problem_body(s, p, dJointGetBody(s->joints[j], 1));
+        /* The target entry of unknown `row`: the force (or torque) times h on its body. */
+        double a[MAX_ROWS][MAX_ROWS] = {{0}}, rhs[MAX_ROWS] = {0};
+        for (size_t c = 0; c < count; c++) {
+            const cadmm_csc *G = &p->G;
+            for (int64_t i = G->colptr[first + c]; i < G->colptr[first + c + 1]; i++) {
+                size_t row = (size_t)G->rowind[i], k = row / 6, d = row % 6;
+                const dReal *f = k == k1 ? (d < 3 ? fb->f1 : fb->t1)
+                                 : k == k2 ? (d < 3 ? fb->f2 : fb->t2)
+                                           : NULL;
+                if (f) rhs[c] += G->values[i] * STEP * f[d % 3];
+                /* Column c against every column of the joint: G_j^T G_j. */
+                for (size_t e = 0; e < count; e++)
+                    for (int64_t l = G->colptr[first + e]; l < G->colptr[first + e + 1]; l++)
+                        if ((size_t)G->rowind[l] == row) a[c][e] += G->values[i] * G->values[l];
+            }
+        }
+        /* Gaussian elimination (the matrix is symmetric positive definite: no pivoting). */
+        for (size_t c = 0; c < count; c++) {
+            for (size_t r = c + 1; r < count; r++) {
+                double q = a[r][c] / a[c][c];
+                for (size_t e = c; e < count; e++) a[r][e] -= q * a[c][e];
+                rhs[r] -= q * rhs[c];
+            }
+        }
+        for (size_t c = count; c-- > 0;) {
+            double x = rhs[c];
+            for (size_t e = c + 1; e < count; e++) x -= a[c][e] * lambda[first + e];
+            lambda[first + c] = x / a[c][c];
+        }
+    }
+    return 0;
+}
+
+/* The vehicle after a step: each hinge-2's anchors (the one carried by the chassis, the
+ * one by the wheel) apart across axis 1 (the joint's gap; along axis 1 is the suspension's
+ * travel, by design), its axes off square, its steering angle (locked at 0); the chassis'
+ * height, pitch and roll, also while a wheel is on the bump; when the last wheel passed
+ * the bump's far foot. Returns the step's largest gap (0 without joints). */
+static double observe_vehicle(const scene *s, summary *sum, double time) {
+    double step_gap = 0.0;
+    if (!s->n_joints) return step_gap;
+    for (size_t j = 0; j < s->n_joints; j++) {
+        dVector3 p1, p2, g1, g2;
+        dJointGetHinge2Anchor(s->joints[j], p1);
+        dJointGetHinge2Anchor2(s->joints[j], p2);
+        dJointGetHinge2Axis1(s->joints[j], g1);
+        dJointGetHinge2Axis2(s->joints[j], g2);
+        double d[3], along = 0.0, gap2 = 0.0, c[3];
+        for (int k = 0; k < 3; k++) d[k] = p1[k] - p2[k];
+        for (int k = 0; k < 3; k++) along += d[k] * g1[k];
+        for (int k = 0; k < 3; k++) gap2 += (d[k] - along * g1[k]) * (d[k] - along * g1[k]);
+        c[0] = g1[1] * g2[2] - g1[2] * g2[1];
+        c[1] = g1[2] * g2[0] - g1[0] * g2[2];
+        c[2] = g1[0] * g2[1] - g1[1] * g2[0];
+        double angle = atan2(sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
+                             g1[0] * g2[0] + g1[1] * g2[1] + g1[2] * g2[2]);
+        double axis_error = fabs(angle - 1.5707963267948966),
+               steer = fabs(dJointGetHinge2Angle1(s->joints[j]));
+        if (!(sqrt(gap2) <= step_gap)) step_gap = sqrt(gap2);
+        if (!(fabs(along) <= sum->max_suspension_travel)) sum->max_suspension_travel = fabs(along);
+        if (!(axis_error <= sum->max_axis_error)) sum->max_axis_error = axis_error;
+        if (!(steer <= sum->max_steer)) sum->max_steer = steer;
+    }
+    /* Pitch: the chassis' x axis (R's first column) above the horizontal; roll: its y axis. */
+    const dReal *x = dBodyGetPosition(s->bodies[s->top]);
+    const dReal *R = dBodyGetRotation(s->bodies[s->top]);
+    double pitch = fabs(atan2(R[8], hypot(R[0], R[4])));
+    double roll = fabs(atan2(R[9], hypot(R[1], R[5])));
+    if (!(x[2] >= sum->min_z)) sum->min_z = x[2];
+    if (!(x[2] <= sum->max_z)) sum->max_z = x[2];
+    if (!(pitch <= sum->max_pitch)) sum->max_pitch = pitch;
+    if (!(roll <= sum->max_roll)) sum->max_roll = roll;
+    int on_bump = 0, all_over = 1;
+    for (size_t i = 0; i < s->n; i++) {
+        if (i == s->top) continue;
+        double wx = dBodyGetPosition(s->bodies[i])[0];
+        on_bump |= fabs(wx - s->bump_x) < s->wheel_radius + s->bump_radius;
+        all_over &= wx > s->bump_x + s->bump_radius;
+    }
+    if (on_bump) {
+        if (!(x[2] >= sum->bump_min_z)) sum->bump_min_z = x[2];
+        if (!(x[2] <= sum->bump_max_z)) sum->bump_max_z = x[2];
+        if (!(pitch <= sum->bump_max_pitch)) sum->bump_max_pitch = pitch;
+    }
+    if (all_over && isnan(sum->over_time)) sum->over_time = time;
+    if (!(step_gap <= sum->max_joint_gap)) sum->max_joint_gap = step_gap;
+    return step_gap;
 }
 
 /* Drift of the top body and whether any body left the stack (moved sideways by more than
@@ -323,6 +468,28 @@ static void report(const options *o, const scene *s, const summary *sum, double 
             printf(",\"unsolved_steps\":%zu,\"solver_builds\":%zu,\"solver_updates\":%zu,"
                    "\"warm_matched\":%zu",
                    sum->unsolved, sum->builds, sum->updates, sum->warm_matched);
+        if (s->n_joints) {
+            /* The vehicle (observe_vehicle; lengths in m, angles in rad, times in s). */
+            const dReal *x = dBodyGetPosition(s->bodies[s->top]);
+            printf(",\"joints\":%zu", s->n_joints);
+            print_number("ode_iterations", (double)o->ode_iterations,
+                         o->solver == SOLVER_QUICKSTEP && o->ode_iterations > 0);
+            print_number("max_joint_gap", sum->max_joint_gap, 1);
+            print_number("max_axis_error", sum->max_axis_error, 1);
+            print_number("max_steer", sum->max_steer, 1);
+            print_number("max_suspension_travel", sum->max_suspension_travel, 1);
+            print_number("distance", x[0] - s->start[s->top][0], 1);
+            print_number("final_speed", dBodyGetLinearVel(s->bodies[s->top])[0], 1);
+            print_number("over_bump_time", sum->over_time, 1);
+            print_number("min_chassis_z", sum->min_z, 1);
+            print_number("max_chassis_z", sum->max_z, 1);
+            print_number("final_chassis_z", x[2], 1);
+            print_number("max_pitch", sum->max_pitch, 1);
+            print_number("max_roll", sum->max_roll, 1);
+            print_number("bump_min_chassis_z", sum->bump_min_z, 1);
+            print_number("bump_max_chassis_z", sum->bump_max_z, 1);
+            print_number("bump_max_pitch", sum->bump_max_pitch, 1);
+        }
         printf("}\n");
     } else {
         printf("%s with %s: %zu steps, %.3g ms per solve (p99 %.3g, max %.3g; CPU %.3g), "
@@ -338,6 +505,20 @@ static void report(const options *o, const scene *s, const summary *sum, double 
                    "%zu steps above tolerance\n",
                    sum->iterations_sum / solved, sum->max_iterations, sum->builds, sum->updates,
                    sum->unsolved);
+        if (s->n_joints)
+            printf("vehicle: drove %.3g m (%.3g m/s at the end), %s %.3g s; joint gap %.3g m, "
+                   "axes %.3g rad off, steering %.3g rad, suspension travel %.3g m; chassis z "
+                   "%.3g to %.3g m (on the bump %.3g to %.3g), pitch %.3g rad (on the bump "
+                   "%.3g), roll %.3g rad\n",
+                   dBodyGetPosition(s->bodies[s->top])[0] - s->start[s->top][0],
+                   dBodyGetLinearVel(s->bodies[s->top])[0],
+                   isnan(sum->over_time) ? "not over the bump after"
+                                         : "all wheels over the bump at",
+                   isnan(sum->over_time) ? (double)sum->steps * STEP : sum->over_time,
+                   sum->max_joint_gap,
+                   sum->max_axis_error, sum->max_steer, sum->max_suspension_travel, sum->min_z,
+                   sum->max_z, sum->bump_min_z, sum->bump_max_z, sum->max_pitch,
+                   sum->bump_max_pitch, sum->max_roll);
     }
 }
 
@@ -355,6 +536,8 @@ int main(int argc, char **argv) {
                         "a base row above %d)\n", o.scene, o.count, SCENE_MAX_BASE);
         return 2;
     }
+    if (o.mu < 0) o.mu = s.mu;
+    if (o.ode_iterations > 0) dWorldSetQuickStepNumIterations(s.world, (int)o.ode_iterations);
     cadmm_ode_options copt = cadmm_ode_default_options();
     copt.mu = o.mu;
     copt.tolerance = o.tolerance;
@@ -365,9 +548,11 @@ int main(int argc, char **argv) {
     FILE *trace = o.trace ? fopen(o.trace, "w") : NULL;
     dJointGroupID group = dJointGroupCreate(0);
     contact_list cl = {0};
-    double *r = NULL, *v = NULL, *step_ms = NULL, *step_cpu_ms = NULL;
+    double *r = NULL, *v = NULL, *lambda = NULL, *step_ms = NULL, *step_cpu_ms = NULL;
     dJointFeedback *feedback = NULL;
-    summary sum = {0};
+    /* NAN: nothing seen yet (the comparisons in observe_vehicle take the first value). */
+    summary sum = {.min_z = NAN, .max_z = NAN, .bump_min_z = NAN, .bump_max_z = NAN,
+                   .bump_max_pitch = NAN, .over_time = NAN};
     int status = 0;
     if (!ctx || (o.trace && !trace)) {
         fprintf(stderr, "cadmm_ode_stack: %s\n",
@@ -377,7 +562,7 @@ int main(int argc, char **argv) {
     }
     if (trace)
         fprintf(trace, "step,time,solve_ms,solve_cpu_ms,iterations,error,contacts,rebuilt,warm_matched,"
-                       "top_z,top_drift,max_depth\n");
+                       "top_z,top_drift,max_depth,joint_gap\n");
 
     size_t steps = (size_t)llround(o.seconds / STEP);
     step_ms = malloc((steps + 1) * sizeof *step_ms);
@@ -416,12 +601,32 @@ int main(int argc, char **argv) {
         stamp t1 = now();
         double ms = t1.wall - t0.wall, cpu_ms = t1.cpu - t0.cpu;
         if (cr == CADMM_OK && o.solver == SOLVER_CADMM) cr = cadmm_ode_impulses(ctx, r);
-        double error = 0.0;
-        if (cr == CADMM_OK) cr = cadmm_ode_error(ctx, r, &error);
-        /* The same answer re-measured by check.c: the impulses and the velocities the bodies
-         * leave the step with, on the problem the integration built. */
         cadmm_ode_problem problem;
         if (cr == CADMM_OK) cr = cadmm_ode_last_problem(ctx, &problem);
+        /* The joint multipliers: cadmm's own, or ODE's recovered from its joints' feedback. */
+        size_t rows = cr == CADMM_OK ? problem.n_joint_rows : 0;
+        if (rows) {
+            double *nl = realloc(lambda, rows * sizeof *lambda);
+            if (!nl) {
+                fprintf(stderr, "cadmm_ode_stack: out of memory\n");
+                status = 2;
+                goto done;
+            }
+            lambda = nl;
+            if (o.solver == SOLVER_CADMM) {
+                cr = cadmm_ode_joint_multipliers(ctx, lambda);
+            } else if (ode_joint_multipliers(&s, ctx, &problem, lambda)) {
+                fprintf(stderr, "cadmm_ode_stack: step %zu: cannot recover ODE's joint "
+                                "multipliers\n", step);
+                status = 2;
+                goto done;
+            }
+        }
+        double error = 0.0;
+        if (cr == CADMM_OK)
+            cr = cadmm_ode_error_with_multipliers(ctx, r, rows ? lambda : NULL, &error);
+        /* The same answer re-measured by check.c: the impulses, multipliers and the
+         * velocities the bodies leave the step with, on the problem the integration built. */
         if (cr == CADMM_OK) {
             for (size_t k = 0; k < problem.n / 6; k++) {
                 dBodyID b = s.bodies[problem.body_index[k]];
@@ -431,8 +636,7 @@ int main(int argc, char **argv) {
                     v[6 * k + 3 + d] = av[d];
                 }
             }
-            /* The scenes have no joints, whose multipliers ODE's solvers would not give. */
-            double checked = check_error(&problem, r, v, NULL);
+            double checked = check_error(&problem, r, v, rows ? lambda : NULL);
             if (!(checked <= sum.max_checked_error)) sum.max_checked_error = checked;
         }
         if (cr != CADMM_OK) {
@@ -461,11 +665,12 @@ int main(int argc, char **argv) {
         }
         double top_z = 0.0, drift = 0.0;
         observe(&s, &sum, &top_z, &drift);
+        double gap = observe_vehicle(&s, &sum, (double)(step + 1) * STEP);
         if (trace)
-            fprintf(trace, "%zu,%.6f,%.6f,%.6f,%.0f,%.6e,%zu,%d,%zu,%.9f,%.9f,%.9f\n", step,
+            fprintf(trace, "%zu,%.6f,%.6f,%.6f,%.0f,%.6e,%zu,%d,%zu,%.9f,%.9f,%.9f,%.9f\n", step,
                     (double)(step + 1) * STEP, ms, cpu_ms,
                     info.solved ? (double)info.iterations : NAN, error, cl.n, info.rebuilt,
-                    info.warm_matched, top_z, drift, depth);
+                    info.warm_matched, top_z, drift, depth, gap);
     }
     if (collide(&s, &cl, &sum) < 0) { /* what the last step left */
         fprintf(stderr, "cadmm_ode_stack: out of memory\n");
@@ -478,14 +683,14 @@ int main(int argc, char **argv) {
     if (s.launch > 0) {
         const dReal *x = dBodyGetPosition(s.bodies[0]), *lv = dBodyGetLinearVel(s.bodies[0]);
         slid = x[0] - s.start[0][0];
-        slide_expected = s.launch * s.launch / (2.0 * MU * GRAVITY);
+        slide_expected = s.launch * s.launch / (2.0 * s.mu * GRAVITY);
         final_speed = sqrt(lv[0] * lv[0] + lv[1] * lv[1] + lv[2] * lv[2]);
         printf("slide: stopped after %.4g m (Coulomb: %.4g m), final speed %.3g m/s\n", slid,
                slide_expected, final_speed);
     }
     if (o.check) {
-        const char *failed[8];
-        char buf[4][160];
+        const char *failed[12];
+        char buf[7][160];
         int nf = 0;
         if (sum.fell) failed[nf++] = "a body fell";
         if (s.launch == 0 && !s.in_motion && !(sum.max_drift < 1e-3))
@@ -510,6 +715,23 @@ int main(int argc, char **argv) {
                      sum.unsolved);
             failed[nf++] = buf[3];
         }
+        if (s.n_joints && isnan(sum.over_time)) {
+            const dReal *x = dBodyGetPosition(s.bodies[s.top]);
+            snprintf(buf[4], sizeof buf[4], "the vehicle did not get over the bump (drove %.3g m)",
+                     x[0] - s.start[s.top][0]);
+            failed[nf++] = buf[4];
+        }
+        if (s.n_joints && !(sum.max_joint_gap < VEHICLE_MAX_GAP)) {
+            snprintf(buf[5], sizeof buf[5], "a wheel's joint opened %.3g m (bound %.3g m)",
+                     sum.max_joint_gap, VEHICLE_MAX_GAP);
+            failed[nf++] = buf[5];
+        }
+        if (s.n_joints && !(fmax(sum.max_axis_error, sum.max_steer) < VEHICLE_MAX_ANGLE)) {
+            snprintf(buf[6], sizeof buf[6],
+                     "a wheel's axes turned %.3g rad off (steering %.3g rad; bound %.3g rad)",
+                     sum.max_axis_error, sum.max_steer, VEHICLE_MAX_ANGLE);
+            failed[nf++] = buf[6];
+        }
         char err[160];
         if (o.solver == SOLVER_CADMM && !(sum.max_checked_error <= o.check_tolerance)) {
             snprintf(err, sizeof err, "re-measured error %.3g above the check tolerance %.3g",
@@ -526,6 +748,7 @@ done:
     free(cl.geoms);
     free(r);
     free(v);
+    free(lambda);
     free(feedback);
     free(step_ms);
     free(step_cpu_ms);

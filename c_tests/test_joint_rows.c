@@ -40,29 +40,11 @@ static const int64_t G_ROWIND[1] = {1};
 static const double G_VALUES[1] = {1.0};
 static const double B[1] = {-0.3};
 
-/* One solve of the block with motor limit `limit` and compliance `c`: the answer and its
- * measures (library and independent); returns 0 when any call failed. */
+/* One solve's answer and its measures (library and independent). */
 typedef struct answer {
     double r[3], v[3], lambda[1], e_lib, e_ind;
     cadmm_status status;
 } answer;
-
-static tu_csc owned(size_t ncols, const int64_t *colptr, const int64_t *rowind,
-                    const double *values)
-{
-    cadmm_csc view = {3, ncols, colptr, rowind, values};
-    tu_csc a;
-    size_t nnz = (size_t)colptr[ncols];
-    a.nrows = view.nrows;
-    a.ncols = ncols;
-    a.colptr = (int64_t *)tu_calloc(ncols + 1, sizeof(int64_t));
-    a.rowind = (int64_t *)tu_calloc(nnz, sizeof(int64_t));
-    a.values = (double *)tu_calloc(nnz, sizeof(double));
-    memcpy(a.colptr, colptr, (ncols + 1) * sizeof(int64_t));
-    memcpy(a.rowind, rowind, nnz * sizeof(int64_t));
-    memcpy(a.values, values, nnz * sizeof(double));
-    return a;
-}
 
 /* The block's problem with motor limit `limit` and compliance `c` (NULL on failure). */
 static cadmm_problem *block(double limit, double c)
@@ -86,8 +68,8 @@ static cadmm_problem *block(double limit, double c)
 static double independent(double limit, double c, const double *r, const double *v,
                           const double *lambda)
 {
-    tu_csc Mo = owned(3, DIAG_COLPTR, DIAG_ROWIND, ONES);
-    tu_csc Go = owned(1, G_COLPTR, G_ROWIND, G_VALUES);
+    tu_csc Mo = tu_csc_copy(3, 3, DIAG_COLPTR, DIAG_ROWIND, ONES);
+    tu_csc Go = tu_csc_copy(3, 1, G_COLPTR, G_ROWIND, G_VALUES);
     double lo[1] = {-limit}, hi[1] = {limit}, comp[1] = {c};
     tu_rows rows = {lo, hi, comp};
     double e = tu_global_error_rows(&Mo, &Mo, &Go, F, W0, B, rows, MU, 1, r, v, lambda);
@@ -96,6 +78,8 @@ static double independent(double limit, double c, const double *r, const double 
     return e;
 }
 
+/* Solves the block with motor limit `limit` and compliance `c` into `a`; 0 when a call
+ * failed. */
 static int solve(double limit, double c, answer *a)
 {
     cadmm_problem *p = block(limit, c);

@@ -41,23 +41,6 @@ static const double R_EXACT[3] = {9.81, -4.905, 0.0};
 static const double V_EXACT[3] = {0.0, 0.1, 0.0};
 static const double LAMBDA_EXACT = 4.005;
 
-/* The owned copies of M = H = I3 and G for the independent measure. */
-static tu_csc owned(size_t nrows, size_t ncols, const int64_t *colptr, const int64_t *rowind,
-                    const double *values)
-{
-    tu_csc a;
-    size_t nnz = (size_t)colptr[ncols];
-    a.nrows = nrows;
-    a.ncols = ncols;
-    a.colptr = (int64_t *)tu_calloc(ncols + 1, sizeof(int64_t));
-    a.rowind = (int64_t *)tu_calloc(nnz, sizeof(int64_t));
-    a.values = (double *)tu_calloc(nnz, sizeof(double));
-    memcpy(a.colptr, colptr, (ncols + 1) * sizeof(int64_t));
-    memcpy(a.rowind, rowind, nnz * sizeof(int64_t));
-    memcpy(a.values, values, nnz * sizeof(double));
-    return a;
-}
-
 /* The least-squares multiplier of docs/algorithms.md §3.2 for the single column G = e_1:
  * lambda = argmin ||G l - (M v - H r - f)|| = (M v - H r - f)_1 (M = H = I). */
 static double lambda_ls(const double r[3], const double v[3]) { return v[1] - r[1] - F[1]; }
@@ -66,9 +49,9 @@ int main(void)
 {
     cadmm_csc I3 = {3, 3, DIAG_COLPTR, DIAG_ROWIND, ONES};
     cadmm_csc G = {3, 1, G_COLPTR, G_ROWIND, G_VALUES};
-    tu_csc Mo = owned(3, 3, DIAG_COLPTR, DIAG_ROWIND, ONES);
-    tu_csc Ho = owned(3, 3, DIAG_COLPTR, DIAG_ROWIND, ONES);
-    tu_csc Go = owned(3, 1, G_COLPTR, G_ROWIND, G_VALUES);
+    tu_csc Mo = tu_csc_copy(3, 3, DIAG_COLPTR, DIAG_ROWIND, ONES);
+    tu_csc Ho = tu_csc_copy(3, 3, DIAG_COLPTR, DIAG_ROWIND, ONES);
+    tu_csc Go = tu_csc_copy(3, 1, G_COLPTR, G_ROWIND, G_VALUES);
     cadmm_problem *p = NULL;
     cadmm_settings *s = NULL;
     cadmm_solver *sv = NULL;

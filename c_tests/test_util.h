@@ -165,6 +165,24 @@ static inline cadmm_csc tu_csc_view(const tu_csc *a)
 }
 #endif
 
+/* An owned copy of compressed-column arrays (for the independent measure of a problem
+ * given as constant arrays); release with tu_csc_free. */
+static inline tu_csc tu_csc_copy(size_t nrows, size_t ncols, const int64_t *colptr,
+                                 const int64_t *rowind, const double *values)
+{
+    tu_csc a;
+    size_t nnz = (size_t)colptr[ncols];
+    a.nrows = nrows;
+    a.ncols = ncols;
+    a.colptr = (int64_t *)tu_calloc(ncols + 1, sizeof(int64_t));
+    a.rowind = (int64_t *)tu_calloc(nnz, sizeof(int64_t));
+    a.values = (double *)tu_calloc(nnz, sizeof(double));
+    memcpy(a.colptr, colptr, (ncols + 1) * sizeof(int64_t));
+    memcpy(a.rowind, rowind, nnz * sizeof(int64_t));
+    memcpy(a.values, values, nnz * sizeof(double));
+    return a;
+}
+
 static inline void tu_csc_free(tu_csc *a)
 {
     if (a == NULL) return;

@@ -310,13 +310,7 @@ pub fn global_error_with(
 /// for a bounded row (zero exactly when `lambda` is inside its bounds with `y = 0`, or at
 /// `lo` with `y >= 0`, or at `hi` with `y <= 0`).
 fn joint_row_residual(j: &Joints, k: usize, gv: f64, lambda: f64) -> f64 {
-    // Without compliance the sum is the equality's residual bit for bit.
-    let c = j.compliance[k];
-    let y = if c == 0.0 {
-        gv + j.b[k]
-    } else {
-        gv + j.b[k] + c * lambda
-    };
+    let y = j.row_velocity(k, gv, lambda);
     match j.is_bounded(k) {
         false => y,
         true => lambda - (lambda - y).clamp(j.lo[k], j.hi[k]),

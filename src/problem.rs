@@ -43,7 +43,26 @@ impl Joints {
 
     /// Whether row `k` has a finite bound (it is then an inequality, not an equality).
     pub fn is_bounded(&self, k: usize) -> bool {
-        self.lo[k] > f64::NEG_INFINITY || self.hi[k] < f64::INFINITY
+        has_bound(self.lo[k], self.hi[k])
+    }
+
+    /// Row `k`'s velocity `y = gv + b_k + c_k lambda` at `gv = G_k^T v`: the one definition
+    /// the measure, Newton and the sweeps share. Without compliance it is `gv + b_k` bit for
+    /// bit, the equality's residual as it always was.
+    #[inline]
+    pub fn row_velocity(&self, k: usize, gv: f64, lambda: f64) -> f64 {
+        let c = self.compliance[k];
+        if c == 0.0 {
+            gv + self.b[k]
+        } else {
+            gv + self.b[k] + c * lambda
+        }
+    }
+
+    /// Whether row `k` is bounded in both `self` and `other` or in neither.
+    fn same_bounded_rows(&self, other: &Joints) -> bool {
+        self.b.len() == other.b.len()
+            && (0..self.b.len()).all(|k| self.is_bounded(k) == other.is_bounded(k))
     }
 
     /// The rows with a finite bound, in order.
@@ -73,8 +92,7 @@ impl Joints {
         }
         let (lo, hi) = (v.lo.unwrap_or(&self.lo), v.hi.unwrap_or(&self.hi));
         check_bounds(lo, hi, p)?;
-        let bounded = |k: usize| lo[k] > f64::NEG_INFINITY || hi[k] < f64::INFINITY;
-        match (0..p).all(|k| bounded(k) == self.is_bounded(k)) {
+        match (0..p).all(|k| has_bound(lo[k], hi[k]) == self.is_bounded(k)) {
             true => Ok(()),
             false => Err(Error::PatternChanged {
                 field: "joint bounds (which rows are bounded)",
@@ -90,6 +108,11 @@ impl Joints {
         check_bounds(&self.lo, &self.hi, p)?;
         check_compliance(&self.compliance, p)
     }
+}
+
+/// Whether the bounds `[lo, hi]` hold a finite one (the row is then an inequality).
+fn has_bound(lo: f64, hi: f64) -> bool {
+    lo > f64::NEG_INFINITY || hi < f64::INFINITY
 }
 
 /// Bounds of `p` joint rows: `lo <= hi`, neither NaN, `lo < +inf` and `hi > -inf`.
@@ -357,11 +380,6 @@ impl GlobalProblem {
             .map_or_else(Vec::new, Joints::bounded_rows)
     }
 
-    /// The joint Jacobian transpose `G`, if the problem has joints.
-    pub(crate) fn joint_matrix(&self) -> Option<&CscMatrix> {
-        self.joints.as_ref().map(|j| &j.g)
-    }
-
     /// Number of joint multipliers (0 without joints).
     pub fn n_joints(&self) -> usize {
         self.joints.as_ref().map_or(0, |j| j.b.len())
@@ -387,13 +405,13 @@ impl GlobalProblem {
         check_same_sizes([self.n(), self.n_contacts()], [next.n(), next.n_contacts()])?;
         check_pattern("M", &self.m, &next.m)?;
         check_pattern("H", &self.h, &next.h)?;
-        match (self.joint_matrix(), next.joint_matrix()) {
+        match (&self.joints, &next.joints) {
             (None, None) => Ok(()),
             (Some(a), Some(b)) => {
-                check_pattern("G", a, b)?;
+                check_pattern("G", &a.g, &b.g)?;
                 // A bounded row is in the ADMM splitting and an equality in the v-update
                 // system: which is which is part of the system's pattern.
-                match self.bounded_rows() == next.bounded_rows() {
+                match a.same_bounded_rows(b) {
                     true => Ok(()),
                     false => Err(Error::PatternChanged {
                         field: "joint bounds (which rows are bounded)",
@@ -402,8 +420,8 @@ impl GlobalProblem {
             }
             (a, b) => Err(Error::Dimension {
                 field: "G",
-                expected: a.map_or(0, CscMatrix::ncols),
-                found: b.map_or(0, CscMatrix::ncols),
+                expected: a.as_ref().map_or(0, |j| j.g.ncols()),
+                found: b.as_ref().map_or(0, |j| j.g.ncols()),
             }),
         }
     }

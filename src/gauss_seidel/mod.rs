@@ -228,7 +228,7 @@ impl GaussSeidel {
         // others held, then is clamped into its bounds (infinite for an equality).
         for (k, &gain) in self.joint_gain.iter().enumerate() {
             let lambda = self.lambda[k];
-            let y = rows.apply(k, &self.v)[0] + j.b[k] + j.compliance[k] * lambda;
+            let y = j.row_velocity(k, rows.apply(k, &self.v)[0], lambda);
             let step = match j.is_bounded(k) {
                 true => (lambda - gain * y).clamp(j.lo[k], j.hi[k]) - lambda,
                 false => -gain * y,

@@ -585,13 +585,7 @@ impl NewtonSystem for GlobalNewton {
 /// the row is clamped at a bound (module documentation): `y = gv + b + c lambda` for an
 /// equality or a bounded row inside its bounds, `s (lambda - bound)` for a clamped one.
 fn row_residual(j: &Joints, k: usize, gv: f64, lambda: f64, s: f64) -> (f64, bool) {
-    let c = j.compliance[k];
-    // Without compliance the sum is the equality's residual bit for bit.
-    let y = if c == 0.0 {
-        gv + j.b[k]
-    } else {
-        gv + j.b[k] + c * lambda
-    };
+    let y = j.row_velocity(k, gv, lambda);
     if !j.is_bounded(k) {
         return (y, false);
     }

@@ -1,7 +1,9 @@
 //! The bounded joint rows of the global splitting (`contact::global`) (docs/algorithms.md §4.2): each is one
 //! more row of the constraint space, after the contacts', with `A = G_k^T`, `c = -b_k` and
 //! `g` the function whose proximal step clamps the multiplier into `[lo_k, hi_k]`. The
-//! equality rows stay in the v-update system, exactly.
+//! equality rows stay in the v-update system, exactly. A row bounded by a contact's normal
+//! impulse (rolling or spinning friction) is clamped into `[-e r_n, e r_n]` as well, with the `r_n`
+//! the same y-step has just projected (docs/algorithms.md §1.4).
 
 use crate::problem::GlobalProblem;
 
@@ -14,6 +16,8 @@ pub(crate) struct BoundedRows {
     lo: Vec<f64>,
     hi: Vec<f64>,
     compliance: Vec<f64>,
+    /// The contact and coefficient of each row bounded by a contact.
+    friction: Vec<Option<(usize, f64)>>,
     /// `b_k` of each row (the splitting's `c` is its negative).
     pub(crate) bias: Vec<f64>,
 }
@@ -31,6 +35,10 @@ impl BoundedRows {
             hi: pick(&j.hi),
             compliance: pick(&j.compliance),
             bias: pick(&j.b),
+            friction: rows
+                .iter()
+                .map(|&k| j.friction_contact[k].map(|i| (i, j.friction[k])))
+                .collect(),
             rows,
         }
     }
@@ -40,21 +48,35 @@ impl BoundedRows {
         self.rows.len()
     }
 
-    /// Row `q`'s multiplier from its dual variable, `-rho zeta` clamped into the bounds: the
-    /// proximal step leaves it there, but an accelerated or relaxed iterate can carry it
-    /// past a bound by round-off, and an engine must never be handed that.
-    pub(crate) fn multiplier(&self, q: usize, zeta: f64, rho: f64) -> f64 {
-        (-rho * zeta).clamp(self.lo[q], self.hi[q])
+    /// Row `q`'s bounds, `normal(i)` giving contact `i`'s normal impulse for a row bounded
+    /// by a contact (a negative one counts as zero, as in [`crate::Joints::bounds`]).
+    #[inline]
+    pub(crate) fn bounds(&self, q: usize, normal: impl Fn(usize) -> f64) -> (f64, f64) {
+        let (lo, hi) = (self.lo[q], self.hi[q]);
+        match self.friction[q] {
+            Some((i, e)) => {
+                let t = e * normal(i).max(0.0);
+                (lo.max(-t), hi.min(t))
+            }
+            None => (lo, hi),
+        }
     }
 
-    /// The proximal step of bounded row `q` at `a = G_k^T v + b_k + zeta` and penalty `rho`:
-    /// the multiplier `lambda = P_[lo,hi](-rho a / (1 + rho c))`, which minimises
+    /// Row `q`'s multiplier from its dual variable, `-rho zeta` clamped into its bounds:
+    /// the proximal step leaves it there, but an accelerated or relaxed iterate can carry
+    /// it past a bound by round-off, and an engine must never be handed that.
+    pub(crate) fn multiplier(&self, zeta: f64, rho: f64, (lo, hi): (f64, f64)) -> f64 {
+        (-rho * zeta).clamp(lo, hi)
+    }
+
+    /// The proximal step of bounded row `q` at `a = G_k^T v + b_k + zeta`, penalty `rho` and
+    /// bounds `[lo, hi]`: the multiplier `lambda = P_[lo,hi](-rho a / (1 + rho c))`, which minimises
     /// `(c/2) lambda^2 + (1/(2 rho)) (lambda + rho a)^2` over the bounds, and the row's
     /// `y = a + lambda / rho` (so that `zeta+ = a - y = -lambda / rho`, and
     /// `lambda = -rho zeta` as for the contacts' impulses).
     #[inline]
-    pub(crate) fn prox(&self, q: usize, a: f64, rho: f64) -> f64 {
-        let lambda = (-rho * a / (1.0 + rho * self.compliance[q])).clamp(self.lo[q], self.hi[q]);
+    pub(crate) fn prox(&self, q: usize, a: f64, rho: f64, (lo, hi): (f64, f64)) -> f64 {
+        let lambda = (-rho * a / (1.0 + rho * self.compliance[q])).clamp(lo, hi);
         a + lambda / rho
     }
 }
@@ -91,19 +113,43 @@ mod tests {
         assert_eq!(b.bias, vec![0.2, 0.3]);
     }
 
+    /// A row bounded by a contact's normal impulse: `[-e r_n, e r_n]`, zero when the
+    /// contact pushes nothing (or an iterate's `r_n` is negative).
+    #[test]
+    fn a_row_bounded_by_a_contact_follows_its_normal_impulse() {
+        let m = CscMatrix::new("M", 1, 1, vec![0, 1], vec![0], vec![1.0]).unwrap();
+        let h = CscMatrix::new("H", 1, 3, vec![0, 1, 1, 1], vec![0], vec![1.0]).unwrap();
+        let g = CscMatrix::new("G", 1, 1, vec![0, 1], vec![0], vec![1.0]).unwrap();
+        let p = GlobalProblem::new(m, h, vec![0.0], vec![0.0; 3], vec![0.5])
+            .unwrap()
+            .with_joints(g, vec![0.0])
+            .unwrap()
+            .with_joint_friction(vec![Some(0)], vec![0.1])
+            .unwrap();
+        let b = BoundedRows::of(&p);
+        assert_eq!(b.rows, vec![0]);
+        assert_eq!(b.bounds(0, |i| [3.0][i]), (-0.1 * 3.0, 0.1 * 3.0));
+        assert_eq!(b.bounds(0, |_| -1.0), (-0.0, 0.0));
+        // Saturated: lambda = -e r_n, y = a + lambda / rho.
+        let (rho, bounds) = (2.0, b.bounds(0, |_| 3.0));
+        assert!((b.prox(0, 1.0, rho, bounds) - (1.0 - 0.3 / 2.0)).abs() < 1e-15);
+    }
+
     /// The prox's multiplier solves the row's law: inside the bounds the row's velocity
     /// `y + c lambda` is zero, at a bound it pushes the right way; checked by hand here.
     #[test]
     fn prox_clamps_the_multiplier_into_the_bounds() {
         let b = rows();
         let rho = 4.0;
+        let (limit, motor) = (b.bounds(0, |_| 0.0), b.bounds(1, |_| 0.0));
+        assert_eq!((limit, motor), ((0.0, f64::INFINITY), (-2.0, 2.0)));
         // Limit, separating (a > 0): lambda = 0, y = a.
-        assert_eq!(b.prox(0, 0.5, rho), 0.5);
+        assert_eq!(b.prox(0, 0.5, rho, limit), 0.5);
         // Limit, pushed (a < 0): lambda = -rho a = 2, y = 0.
-        assert_eq!(b.prox(0, -0.5, rho), 0.0);
+        assert_eq!(b.prox(0, -0.5, rho, limit), 0.0);
         // Motor inside its bounds: lambda = -4 * -0.3 / (1 + 2) = 0.4, y = -0.3 + 0.1.
-        assert!((b.prox(1, -0.3, rho) - (-0.2)).abs() < 1e-15);
+        assert!((b.prox(1, -0.3, rho, motor) - (-0.2)).abs() < 1e-15);
         // Motor saturated: lambda = 2, y = -3 + 0.5.
-        assert_eq!(b.prox(1, -3.0, rho), -2.5);
+        assert_eq!(b.prox(1, -3.0, rho, motor), -2.5);
     }
 }

@@ -89,8 +89,20 @@ impl CoupledSolver {
             Problem::Global(_) => problem.n_velocities() + joints <= DENSE_MAX,
             Problem::Local(_) => l <= DENSE_MAX,
         };
+        // Newton's step has no term for a bound that moves with a contact's normal impulse.
+        let contact_bounds = match &problem {
+            Problem::Global(g) => g.has_contact_bounds(),
+            Problem::Local(_) => false,
+        };
+        if contact_bounds && resolved.newton == NewtonUse::Alone {
+            return Err(Error::Unsupported(
+                "the Newton variant: rows bounded by a contact's normal impulse (rolling or \
+                 spinning friction) are solved by ADMM"
+                    .into(),
+            ));
+        }
         let mut form = contact_form(problem, settings.linear_solver)?;
-        if form.matrix_free() && resolved.newton == NewtonUse::Polish {
+        if (form.matrix_free() || contact_bounds) && resolved.newton == NewtonUse::Polish {
             // A Newton phase would factorize what the matrix-free backend avoids.
             resolved.newton = NewtonUse::Off;
         }

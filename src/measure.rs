@@ -288,7 +288,8 @@ pub fn global_error_with(
             .max(bounded_multipliers(j, lambda));
         let gv = &work.gv;
         let res =
-            SumSq::of(|| (0..gv.len()).map(|k| joint_row_residual(j, k, gv[k], lambda[k]))).norm();
+            SumSq::of(|| (0..gv.len()).map(|k| joint_row_residual(j, k, gv[k], lambda[k], r)))
+                .norm();
         work.scales.joint = scale;
         joint_error = relative(res, scale.max(work.floors.joint));
     }
@@ -308,12 +309,16 @@ pub fn global_error_with(
 /// Row `k`'s residual at `gv = G_k^T v` and its multiplier `lambda`: the row's velocity
 /// `y = gv + b + c lambda` for an equality, the natural map `lambda - P_[lo,hi](lambda - y)`
 /// for a bounded row (zero exactly when `lambda` is inside its bounds with `y = 0`, or at
-/// `lo` with `y >= 0`, or at `hi` with `y <= 0`).
-fn joint_row_residual(j: &Joints, k: usize, gv: f64, lambda: f64) -> f64 {
+/// `lo` with `y >= 0`, or at `hi` with `y <= 0`), the bounds of a row bounded by a contact
+/// taken at the impulses `r`.
+fn joint_row_residual(j: &Joints, k: usize, gv: f64, lambda: f64, r: &[f64]) -> f64 {
     let y = j.row_velocity(k, gv, lambda);
     match j.is_bounded(k) {
         false => y,
-        true => lambda - (lambda - y).clamp(j.lo[k], j.hi[k]),
+        true => {
+            let (lo, hi) = j.bounds(k, r);
+            lambda - (lambda - y).clamp(lo, hi)
+        }
     }
 }
 

@@ -14,7 +14,9 @@ use crate::types::Error;
 /// equality, `y_k = 0` (a bilateral joint); a bounded row holds `y_k = 0` while its
 /// multiplier is inside its bounds and `y_k >= 0` at `lo_k`, `y_k <= 0` at `hi_k` (a
 /// limit is `[0, inf)`, a motor or dry joint friction `[-F h, F h]` with `b` minus the
-/// target velocity).
+/// target velocity). A row may instead take its bounds from a contact: `[-e r_n, e r_n]`
+/// with `r_n` the contact's normal impulse and `e` the row's coefficient (rolling and
+/// spinning friction, docs/algorithms.md §1.4).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Joints {
     /// `n x p` joint Jacobian transpose.
@@ -27,6 +29,13 @@ pub struct Joints {
     pub hi: Vec<f64>,
     /// Length-`p` compliances `c >= 0` (velocity per unit impulse; 0 for a rigid row).
     pub compliance: Vec<f64>,
+    /// Length-`p` contact whose normal impulse bounds each row (`None` for the rows whose
+    /// bounds are `lo` and `hi` alone): row `k` with `Some(i)` holds `|lambda_k| <= e_k
+    /// r_n(i)` as well as `lo_k <= lambda_k <= hi_k` (which must then hold zero).
+    pub friction_contact: Vec<Option<usize>>,
+    /// Length-`p` coefficients `e_k >= 0` of those rows (0 on the others): a length for a
+    /// torque row (rolling resistance per unit normal impulse), a ratio for a force row.
+    pub friction: Vec<f64>,
 }
 
 impl Joints {
@@ -38,12 +47,35 @@ impl Joints {
             lo: Vec::new(),
             hi: Vec::new(),
             compliance: Vec::new(),
+            friction_contact: Vec::new(),
+            friction: Vec::new(),
         }
     }
 
-    /// Whether row `k` has a finite bound (it is then an inequality, not an equality).
+    /// Whether row `k` has a finite bound or a contact's (it is then an inequality, not an
+    /// equality).
     pub fn is_bounded(&self, k: usize) -> bool {
-        has_bound(self.lo[k], self.hi[k])
+        has_bound(self.lo[k], self.hi[k]) || self.friction_contact[k].is_some()
+    }
+
+    /// Row `k`'s bounds at the contact impulses `r` (normal first, 3 per contact): `lo_k`
+    /// and `hi_k`, and for a row bounded by a contact their intersection with `-+ e_k r_n`
+    /// (a negative `r_n`, which only an iterate can have, counts as zero).
+    #[inline]
+    pub fn bounds(&self, k: usize, r: &[f64]) -> (f64, f64) {
+        let (lo, hi) = (self.lo[k], self.hi[k]);
+        match self.friction_contact[k] {
+            Some(i) => {
+                let t = self.friction[k] * r[3 * i].max(0.0);
+                (lo.max(-t), hi.min(t))
+            }
+            None => (lo, hi),
+        }
+    }
+
+    /// Whether any row takes its bounds from a contact's normal impulse.
+    pub fn has_contact_bounds(&self) -> bool {
+        self.friction_contact.iter().any(Option::is_some)
     }
 
     /// Row `k`'s velocity `y = gv + b_k + c_k lambda` at `gv = G_k^T v`: the one definition
@@ -62,6 +94,7 @@ impl Joints {
     /// Whether row `k` is bounded in both `self` and `other` or in neither.
     fn same_bounded_rows(&self, other: &Joints) -> bool {
         self.b.len() == other.b.len()
+            && self.friction_contact == other.friction_contact
             && (0..self.b.len()).all(|k| self.is_bounded(k) == other.is_bounded(k))
     }
 
@@ -87,12 +120,17 @@ impl Joints {
         if let Some(c) = v.compliance {
             check_compliance(c, p)?;
         }
+        if let Some(e) = v.friction {
+            check_friction(&self.friction_contact, e, p)?;
+        }
         if v.lo.is_none() && v.hi.is_none() {
             return Ok(());
         }
         let (lo, hi) = (v.lo.unwrap_or(&self.lo), v.hi.unwrap_or(&self.hi));
         check_bounds(lo, hi, p)?;
-        match (0..p).all(|k| has_bound(lo[k], hi[k]) == self.is_bounded(k)) {
+        check_contact_rows(&self.friction_contact, lo, hi)?;
+        let contact = |k: usize| self.friction_contact[k].is_some();
+        match (0..p).all(|k| (has_bound(lo[k], hi[k]) || contact(k)) == self.is_bounded(k)) {
             true => Ok(()),
             false => Err(Error::PatternChanged {
                 field: "joint bounds (which rows are bounded)",
@@ -106,8 +144,55 @@ impl Joints {
         check_shape("G", &self.g, n, p)?;
         check_len("b", &self.b, p)?;
         check_bounds(&self.lo, &self.hi, p)?;
-        check_compliance(&self.compliance, p)
+        check_compliance(&self.compliance, p)?;
+        check_friction(&self.friction_contact, &self.friction, p)?;
+        check_contact_rows(&self.friction_contact, &self.lo, &self.hi)?;
+        // A row bounded by a contact acts on the bodies of its contact.
+        match (0..p).find(|&k| self.friction_contact[k].is_some() && self.g.col(k).next().is_none())
+        {
+            Some(index) => Err(Error::InvalidValue {
+                field: "G",
+                index,
+                reason: "a row bounded by a contact's normal impulse has no entry",
+            }),
+            None => Ok(()),
+        }
     }
+}
+
+/// Own bounds of the rows bounded by contacts: they hold zero (`lo <= 0 <= hi`), as the
+/// contact's `-+ e r_n` does, so that the two always intersect.
+fn check_contact_rows(contact: &[Option<usize>], lo: &[f64], hi: &[f64]) -> Result<(), Error> {
+    let wrong = |k: usize| contact[k].is_some() && (lo[k] > 0.0 || hi[k] < 0.0);
+    match (0..contact.len()).find(|&k| wrong(k)) {
+        Some(index) => Err(Error::InvalidValue {
+            field: if lo[index] > 0.0 { "lo" } else { "hi" },
+            index,
+            reason: "the bounds of a row bounded by a contact's normal impulse exclude zero",
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Coefficients of `p` joint rows bounded by contacts: finite and non-negative, and zero
+/// on the rows without a contact (a coefficient there would be silently ignored).
+fn check_friction(contact: &[Option<usize>], e: &[f64], p: usize) -> Result<(), Error> {
+    check_len("friction", e, p)?;
+    for (k, (&x, c)) in e.iter().zip(contact).enumerate() {
+        let reason = if x < 0.0 {
+            "coefficient is negative"
+        } else if x != 0.0 && c.is_none() {
+            "coefficient on a row without a contact"
+        } else {
+            continue;
+        };
+        return Err(Error::InvalidValue {
+            field: "friction",
+            index: k,
+            reason,
+        });
+    }
+    Ok(())
 }
 
 /// Whether the bounds `[lo, hi]` hold a finite one (the row is then an inequality).
@@ -347,6 +432,8 @@ impl GlobalProblem {
                 lo: vec![f64::NEG_INFINITY; p],
                 hi: vec![f64::INFINITY; p],
                 compliance: vec![0.0; p],
+                friction_contact: vec![None; p],
+                friction: vec![0.0; p],
             })
         };
         Ok(self)
@@ -371,6 +458,48 @@ impl GlobalProblem {
             j.compliance = c;
         }
         Ok(self)
+    }
+
+    /// Rows whose bounds follow a contact's normal impulse, `|lambda_k| <= e_k r_n(i)` with
+    /// `i = contact[k]` and `e_k = coefficient[k]` (`None` and 0 for the other rows), on top
+    /// of their own `lo_k <= lambda_k <= hi_k`, which must hold zero: rolling friction is
+    /// such a row on a relative angular velocity about a tangent, spinning friction about
+    /// the normal, with `e` in length units. Without joints both must be empty.
+    pub fn with_joint_friction(
+        mut self,
+        contact: Vec<Option<usize>>,
+        coefficient: Vec<f64>,
+    ) -> Result<Self, Error> {
+        let p = self.n_joints();
+        if contact.len() != p {
+            return Err(Error::Dimension {
+                field: "friction_contact",
+                expected: p,
+                found: contact.len(),
+            });
+        }
+        if let Some(index) = contact
+            .iter()
+            .position(|c| c.is_some_and(|i| i >= self.n_contacts()))
+        {
+            return Err(Error::InvalidValue {
+                field: "friction_contact",
+                index,
+                reason: "no such contact",
+            });
+        }
+        check_friction(&contact, &coefficient, p)?;
+        if let Some(j) = &mut self.joints {
+            j.friction_contact = contact;
+            j.friction = coefficient;
+            j.validate(self.m.nrows())?;
+        }
+        Ok(self)
+    }
+
+    /// Whether any joint row takes its bounds from a contact's normal impulse.
+    pub fn has_contact_bounds(&self) -> bool {
+        self.joints.as_ref().is_some_and(Joints::has_contact_bounds)
     }
 
     /// The joint rows with a finite bound (none without joints).
@@ -453,7 +582,7 @@ impl GlobalProblem {
             self.h.check_values("H", x)?;
         }
         match &self.joints {
-            None if [v.g, v.b, v.lo, v.hi, v.compliance]
+            None if [v.g, v.b, v.lo, v.hi, v.compliance, v.friction]
                 .iter()
                 .any(Option::is_some) =>
             {
@@ -479,6 +608,7 @@ impl GlobalProblem {
                 (&mut j.lo, v.lo),
                 (&mut j.hi, v.hi),
                 (&mut j.compliance, v.compliance),
+                (&mut j.friction, v.friction),
             ];
             for (dst, src) in rows {
                 if let Some(src) = src {
@@ -499,10 +629,21 @@ impl LocalProblem {
     /// Takes new values on the same sizes and pattern (`None` keeps a value). Everything
     /// is checked before anything changes; no allocation.
     pub(crate) fn set_values(&mut self, v: &NewValues) -> Result<(), Error> {
-        let global = [v.m, v.h, v.g, v.f, v.w, v.b, v.lo, v.hi, v.compliance];
+        let global = [
+            v.m,
+            v.h,
+            v.g,
+            v.f,
+            v.w,
+            v.b,
+            v.lo,
+            v.hi,
+            v.compliance,
+            v.friction,
+        ];
         if global.iter().any(Option::is_some) {
             return Err(Error::Unsupported(
-                "update_values: M, H, G, f, w, b and the joint bounds and compliance belong \
+                "update_values: M, H, G, f, w, b and the joint bounds, compliance and friction belong \
                  to a global problem, the solver holds a local one"
                     .into(),
             ));
@@ -646,6 +787,9 @@ impl Problem {
                     concat(&mut joints.iter().map(|j| &j.hi)),
                 )?
                 .with_joint_compliance(concat(&mut joints.iter().map(|j| &j.compliance)))?;
+            let contact = stacked_contacts(&globals, &joints);
+            let p =
+                p.with_joint_friction(contact, concat(&mut joints.iter().map(|j| &j.friction)))?;
             return Ok(Problem::Global(p));
         }
         let locals: Vec<&LocalProblem> = parts
@@ -731,6 +875,9 @@ pub struct NewValues<'a> {
     pub hi: Option<&'a [f64]>,
     /// Global form with joints: compliances.
     pub compliance: Option<&'a [f64]>,
+    /// Global form with joints: coefficients of the rows bounded by contacts (which rows
+    /// and which contacts cannot change).
+    pub friction: Option<&'a [f64]>,
     /// Both forms: friction coefficients.
     pub mu: Option<&'a [f64]>,
     /// Local form: values of the Delassus matrix `W`.
@@ -752,10 +899,23 @@ impl NewValues<'static> {
         lo: Some(&[]),
         hi: Some(&[]),
         compliance: Some(&[]),
+        friction: Some(&[]),
         mu: Some(&[]),
         delassus: Some(&[]),
         q: Some(&[]),
     };
+}
+
+/// The contact bounding each joint row of stacked problems, in the stacked numbering (each
+/// part's contacts follow the previous parts').
+fn stacked_contacts(parts: &[&GlobalProblem], joints: &[Joints]) -> Vec<Option<usize>> {
+    let mut first = 0;
+    let mut out = Vec::new();
+    for (g, j) in parts.iter().zip(joints) {
+        out.extend(j.friction_contact.iter().map(|c| c.map(|i| first + i)));
+        first += g.n_contacts();
+    }
+    out
 }
 
 /// Copies of a problem's current values for the fields an update names, taken before the
@@ -764,9 +924,9 @@ impl NewValues<'static> {
 /// from one update to the next.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct KeptValues {
-    /// `m, h, g, f, w, b, mu, delassus, q, lo, hi, compliance`, each with whether it was
-    /// kept.
-    fields: [(bool, Vec<f64>); 12],
+    /// `m, h, g, f, w, b, mu, delassus, q, lo, hi, compliance, friction`, each with
+    /// whether it was kept.
+    fields: [(bool, Vec<f64>); 13],
 }
 
 impl KeptValues {
@@ -795,6 +955,7 @@ impl KeptValues {
                     vector(9, given.lo, &j.lo);
                     vector(10, given.hi, &j.hi);
                     vector(11, given.compliance, &j.compliance);
+                    vector(12, given.friction, &j.friction);
                 }
             }
             ProblemRef::Local(p) => {
@@ -822,7 +983,7 @@ impl KeptValues {
 
     /// The kept values, as an update that puts them back.
     pub(crate) fn values(&self) -> NewValues<'_> {
-        let [m, h, g, f, w, b, mu, delassus, q, lo, hi, compliance] =
+        let [m, h, g, f, w, b, mu, delassus, q, lo, hi, compliance, friction] =
             std::array::from_fn(|k| self.fields[k].0.then_some(&self.fields[k].1[..]));
         NewValues {
             m,
@@ -834,6 +995,7 @@ impl KeptValues {
             lo,
             hi,
             compliance,
+            friction,
             mu,
             delassus,
             q,

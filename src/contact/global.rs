@@ -266,9 +266,13 @@ impl<S: VelocitySystem> Splitting for GlobalSplitting<S> {
             set3(y, i, out);
         }
         let m = self.p.w().len();
+        let rho = self.rho;
         for q in 0..self.bounded.len() {
             let a = ax[m + q] - self.c[m + q] + zeta[m + q];
-            y[m + q] = self.bounded.prox(q, a, self.rho);
+            // The contacts' impulses just projected, `r = -rho zeta+ = rho (y - input)`.
+            let normal = |i: usize| rho * (y[3 * i] - prox_input(ax, &self.c, zeta, i)[0]);
+            let bounds = self.bounded.bounds(q, normal);
+            y[m + q] = self.bounded.prox(q, a, rho, bounds);
         }
     }
 
@@ -478,7 +482,10 @@ impl ContactForm for ProblemSplitting {
         out.lambda.clear();
         out.lambda.extend(self.sol[n..].iter().map(|x| -x));
         for (q, &k) in self.bounded.rows.iter().enumerate() {
-            out.lambda[k] = self.bounded.multiplier(q, state.zeta[m + q], state.rho);
+            let bounds = self.bounded.bounds(q, |i| out.r[3 * i]);
+            out.lambda[k] = self
+                .bounded
+                .multiplier(state.zeta[m + q], state.rho, bounds);
         }
     }
 

@@ -230,7 +230,10 @@ impl GaussSeidel {
             let lambda = self.lambda[k];
             let y = j.row_velocity(k, rows.apply(k, &self.v)[0], lambda);
             let step = match j.is_bounded(k) {
-                true => (lambda - gain * y).clamp(j.lo[k], j.hi[k]) - lambda,
+                true => {
+                    let (lo, hi) = j.bounds(k, &self.r);
+                    (lambda - gain * y).clamp(lo, hi) - lambda
+                }
                 false => -gain * y,
             };
             if step != 0.0 {

@@ -181,6 +181,13 @@ impl GlobalNewton {
     /// with `W_ii` approximated by `H_i^T diag(M)^-1 H_i` (exact for a diagonal M, and W
     /// is never formed).
     pub fn new(prob: &GlobalProblem) -> Result<Self, Error> {
+        if prob.has_contact_bounds() {
+            return Err(Error::Unsupported(
+                "Newton: rows bounded by a contact's normal impulse (rolling or spinning \
+                 friction) are solved by ADMM alone"
+                    .into(),
+            ));
+        }
         let n = prob.n();
         let nc = prob.n_contacts();
         let empty = CscMatrix::from_triplets("G", n, 0, &[])?;

@@ -65,9 +65,10 @@ pub(crate) fn partition_global(p: &GlobalProblem) -> Partition {
             sets.union(i, j);
         }
     }
+    let bounds_a_row = couple_rows_to_contacts(p, &mut sets);
     let mut bodiless = Vec::new();
     for c in 0..nc {
-        let mut touched = false;
+        let mut touched = bounds_a_row[c];
         for k in 3 * c..3 * c + 3 {
             for &i in rows(&p.h, k) {
                 sets.union(n + c, i);
@@ -126,6 +127,22 @@ pub(crate) fn partition_global(p: &GlobalProblem) -> Partition {
         free,
         bodiless,
     }
+}
+
+/// Couples each joint row bounded by a contact (rolling or spinning friction) to that
+/// contact's node in `sets` (the velocities, then one node per contact); returns which
+/// contacts bound a row.
+fn couple_rows_to_contacts(p: &GlobalProblem, sets: &mut DisjointSets) -> Vec<bool> {
+    let mut bounds_a_row = vec![false; p.n_contacts()];
+    if let Some(j) = &p.joints {
+        for (k, c) in j.friction_contact.iter().enumerate() {
+            if let (Some(c), Some(&i)) = (c, rows(&j.g, k).first()) {
+                sets.union(p.n() + c, i);
+                bounds_a_row[*c] = true;
+            }
+        }
+    }
+    bounds_a_row
 }
 
 /// Partition of a local problem.
@@ -246,10 +263,17 @@ impl Part {
         if let Some(j) = &p.joints {
             let (g, g_entries) = sub_matrix("G", &j.g, nv, self.joints.iter().copied(), row_of)?;
             let rows = || self.joints.iter().copied();
+            // A row bounded by a contact names it in the part's numbering (the partition
+            // put both in one part).
+            let contact = |c: Option<usize>| c.and_then(|c| self.contacts.binary_search(&c).ok());
             sub = sub
                 .with_joints(g, pick(&j.b, rows()))?
                 .with_joint_bounds(pick(&j.lo, rows()), pick(&j.hi, rows()))?
-                .with_joint_compliance(pick(&j.compliance, rows()))?;
+                .with_joint_compliance(pick(&j.compliance, rows()))?
+                .with_joint_friction(
+                    rows().map(|k| contact(j.friction_contact[k])).collect(),
+                    pick(&j.friction, rows()),
+                )?;
             self.g_entries = g_entries;
         }
         Ok(sub)
@@ -288,8 +312,8 @@ pub(crate) struct ValueBuffers {
     g: Vec<f64>,
     f: Vec<f64>,
     w: Vec<f64>,
-    /// The joint rows' `b`, `lo`, `hi` and compliance.
-    rows: [Vec<f64>; 4],
+    /// The joint rows' `b`, `lo`, `hi`, compliance and friction coefficients.
+    rows: [Vec<f64>; 5],
     mu: Vec<f64>,
 }
 
@@ -327,7 +351,7 @@ impl ValueBuffers {
         }
         if let Some(j) = joints {
             let rows = part.joints.iter().copied();
-            let [b, lo, hi, compliance] = &mut self.rows;
+            let [b, lo, hi, compliance, friction] = &mut self.rows;
             let pick = |given: Option<&[f64]>, x: &[f64], buf: &'a mut Vec<f64>| {
                 given.map(|_| gather_sized(x, rows.clone(), buf))
             };
@@ -335,6 +359,7 @@ impl ValueBuffers {
             out.lo = pick(given.lo, &j.lo, lo);
             out.hi = pick(given.hi, &j.hi, hi);
             out.compliance = pick(given.compliance, &j.compliance, compliance);
+            out.friction = pick(given.friction, &j.friction, friction);
         }
         if given.f.is_some() {
             out.f = Some(gather_sized(

@@ -113,8 +113,8 @@ fn rel(num: f64, den: f64) -> f64 {
 /// docs/algorithms.md §3, global form, dense and independent of the library. With joints,
 /// `lambda` (their multipliers, required) enters the equation residual and the joint
 /// rows' residual is added: `G^T v + b + c lambda` for an equality, the natural map
-/// `lambda - clamp(lambda - y, lo, hi)` for a bounded row, whose multipliers also join the
-/// denominator.
+/// `lambda - clamp(lambda - y, lo, hi)` for a bounded row (intersected with `-+ e r_n`
+/// for one bounded by a contact's normal impulse), whose multipliers also join the denominator.
 pub fn global_error(p: &GlobalProblem, r: &[f64], v: &[f64], lambda: &[f64]) -> f64 {
     let (m, h) = (dense(&p.m), dense(&p.h));
     let mv = matvec(&m, v);
@@ -127,18 +127,29 @@ pub fn global_error(p: &GlobalProblem, r: &[f64], v: &[f64], lambda: &[f64]) -> 
             *a += b;
         }
         let gv = matvec_t(&g, v);
+        // A row bounded by contact `i` has its bounds intersected with `-+ e r_n(i)`.
+        let bounds = |k: usize| match j.friction_contact[k] {
+            Some(i) => {
+                let t = j.friction[k] * r[3 * i].max(0.0);
+                (j.lo[k].max(-t), j.hi[k].min(t))
+            }
+            None => (j.lo[k], j.hi[k]),
+        };
+        let is_bounded = |k: usize| {
+            j.lo[k].is_finite() || j.hi[k].is_finite() || j.friction_contact[k].is_some()
+        };
         let res: Vec<f64> = (0..j.b.len())
             .map(|k| {
                 let y = gv[k] + j.b[k] + j.compliance[k] * lambda[k];
-                let bounded = j.lo[k].is_finite() || j.hi[k].is_finite();
-                match bounded {
-                    true => lambda[k] - (lambda[k] - y).max(j.lo[k]).min(j.hi[k]),
+                let (lo, hi) = bounds(k);
+                match is_bounded(k) {
+                    true => lambda[k] - (lambda[k] - y).max(lo).min(hi),
                     false => y,
                 }
             })
             .collect();
         let bounded: Vec<f64> = (0..j.b.len())
-            .filter(|&k| j.lo[k].is_finite() || j.hi[k].is_finite())
+            .filter(|&k| is_bounded(k))
             .map(|k| lambda[k])
             .collect();
         // The velocities the joint rows see under free motion: |G|^T |diag(M)^-1 f|.

@@ -71,7 +71,7 @@ static double independent(double limit, double c, const double *r, const double 
     tu_csc Mo = tu_csc_copy(3, 3, DIAG_COLPTR, DIAG_ROWIND, ONES);
     tu_csc Go = tu_csc_copy(3, 1, G_COLPTR, G_ROWIND, G_VALUES);
     double lo[1] = {-limit}, hi[1] = {limit}, comp[1] = {c};
-    tu_rows rows = {lo, hi, comp};
+    tu_rows rows = {lo, hi, comp, NULL, NULL};
     double e = tu_global_error_rows(&Mo, &Mo, &Go, F, W0, B, rows, MU, 1, r, v, lambda);
     tu_csc_free(&Mo);
     tu_csc_free(&Go);

@@ -317,18 +317,30 @@ static inline double tu_local_error(const tu_csc *W, const double *q, const doub
  * compliance). */
 typedef struct tu_rows {
     const double *lo, *hi, *c;
+    /* Rows bounded by a contact's normal impulse (NULL for none): contact[k] >= 0 adds the
+     * bounds -+ e[k] r_n(contact[k]) to lo and hi; -1 leaves the row's own. */
+    const int64_t *contact;
+    const double *e;
 } tu_rows;
 
 /* Row k's residual at y = G_k^T v + b_k + c_k lambda_k: y for an equality, the natural map
- * lambda - clamp(lambda - y, lo, hi) for a row with a finite bound. */
+ * lambda - clamp(lambda - y, lo, hi) for a row with a finite bound or a contact's (whose
+ * normal impulse is read in r). */
 static inline double tu_row_residual(tu_rows rows, size_t k, double gv, double b, double lambda,
-                                     int *bounded)
+                                     const double *r, int *bounded)
 {
     double y = gv + b + (rows.c ? rows.c[k] * lambda : 0.0);
-    *bounded = rows.lo && (isfinite(rows.lo[k]) || isfinite(rows.hi[k]));
+    double lo = rows.lo ? rows.lo[k] : -INFINITY, hi = rows.lo ? rows.hi[k] : INFINITY;
+    int by_contact = rows.contact && rows.contact[k] >= 0;
+    if (by_contact) {
+        double rn = r[3 * rows.contact[k]], t = rows.e[k] * (rn > 0.0 ? rn : 0.0);
+        lo = lo > -t ? lo : -t;
+        hi = hi < t ? hi : t;
+    }
+    *bounded = by_contact || isfinite(lo) || isfinite(hi);
     if (!*bounded) return y;
     double z = lambda - y;
-    z = z < rows.lo[k] ? rows.lo[k] : (z > rows.hi[k] ? rows.hi[k] : z);
+    z = z < lo ? lo : (z > hi ? hi : z);
     return lambda - z;
 }
 
@@ -372,7 +384,7 @@ static inline double tu_global_error_rows(const tu_csc *M, const tu_csc *H, cons
         tu_csc_mul_t(G, v, 0, gv); /* G^T v */
         for (size_t k = 0; k < p; ++k) {
             int bounded;
-            res[k] = tu_row_residual(rows, k, gv[k], b[k], lambda[k], &bounded);
+            res[k] = tu_row_residual(rows, k, gv[k], b[k], lambda[k], r, &bounded);
             lambda_b[k] = bounded ? lambda[k] : 0.0;
             /* the velocity row k sees under free motion: sum_i |G_ik f_i / M_ii| */
             for (int64_t e = G->colptr[k]; e < G->colptr[k + 1]; ++e) {
@@ -406,7 +418,7 @@ static inline double tu_global_error_joints(const tu_csc *M, const tu_csc *H, co
                                             const double *mu, size_t nc, const double *r,
                                             const double *v, const double *lambda)
 {
-    tu_rows none = {NULL, NULL, NULL};
+    tu_rows none = {NULL, NULL, NULL, NULL, NULL};
     return tu_global_error_rows(M, H, G, f, w, b, none, mu, nc, r, v, lambda);
 }
 

@@ -642,6 +642,34 @@ cadmm_result cadmm_problem_set_joint_bounds(struct cadmm_problem *p,
 cadmm_result cadmm_problem_set_joint_compliance(struct cadmm_problem *p, const double *c);
 
 /**
+ * Bounds joint rows by a contact's normal impulse, replacing any earlier such bounds:
+ * row `k` with `contact[k] = i >= 0` holds `-e_k r_n(i) <= lambda_k <= e_k r_n(i)`
+ * (`e_k = coefficient[k] >= 0`, `r_n(i)` contact `i`'s normal impulse in the solution),
+ * and is otherwise a bounded row as in `cadmm_problem_set_joint_bounds`: `y_k = 0` inside
+ * its bounds, `y_k >= 0` at the lower one, `y_k <= 0` at the upper one.
+ *
+ * This is rolling and spinning friction. Rolling friction is two such rows per contact,
+ * on the bodies' relative angular velocity about the contact's two tangents (`G`'s column
+ * holds `+t` on one body's angular velocity and `-t` on the other's), spinning friction
+ * one row about the normal; `e` is then a length (the torque impulse per unit normal
+ * impulse), `lambda` a torque impulse. A row with `contact[k] = -1` keeps its own bounds and
+ * must have `coefficient[k] = 0`; a row bounded by a contact must have infinite `lo` and
+ * `hi` and at least one entry in `G`'s column.
+ *
+ * `contact` and `coefficient` have `p` entries each (`p` the number of joint rows; 0
+ * without joints, when both may be NULL). The Newton phase does not take such rows: a
+ * problem with them is solved by ADMM (`CADMM_VARIANT_NEWTON` refuses it with
+ * `CADMM_ERR_UNSUPPORTED`). On failure the problem is unchanged. Errors:
+ * `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a contact index out of range, a
+ * negative coefficient or one on a row without a contact, a row bounded by a contact with
+ * a finite bound or an empty column), `CADMM_ERR_UNSUPPORTED` (a local problem). Such a
+ * problem cannot be written as an FCLib file.
+ */
+cadmm_result cadmm_problem_set_joint_friction(struct cadmm_problem *p,
+                                              const int64_t *contact,
+                                              const double *coefficient);
+
+/**
  * Builds a local problem `u = W r + q` with `n_contacts` contacts.
  *
  * `W` (the Delassus matrix) is `3 n_contacts x 3 n_contacts`, both triangles, possibly
@@ -920,6 +948,19 @@ cadmm_result cadmm_solver_update_joint_rows(struct cadmm_solver *sv,
                                             const double *lo,
                                             const double *hi,
                                             const double *c);
+
+/**
+ * New coefficients of the joint rows bounded by contacts' normal impulses (see
+ * `cadmm_problem_set_joint_friction`), for the next time step: `coefficient` has one
+ * entry per joint row (0 on the rows without a contact). Which rows are bounded by which
+ * contact cannot change (`CADMM_ERR_PATTERN_CHANGED` then needs a new solver). Same
+ * behaviour otherwise as `cadmm_solver_update_values`.
+ *
+ * Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a negative coefficient or
+ * one on a row without a contact), `CADMM_ERR_UNSUPPORTED` (a local solver, or a problem
+ * without joints).
+ */
+cadmm_result cadmm_solver_update_joint_friction(struct cadmm_solver *sv, const double *coefficient);
 
 /**
  * The per-step path of a local problem: new values of `W` (its `nnz` entries, in the order

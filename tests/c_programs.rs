@@ -1,5 +1,6 @@
 //! Builds and runs the plain C test programs of `c_tests/` (`test_api_errors.c`,
-//! `test_analytic.c`, `test_joints.c`, `test_joint_rows.c`, `test_islands.c`, `test_random.c`,
+//! `test_analytic.c`, `test_joints.c`, `test_joint_rows.c`, `test_rolling_friction.c`,
+//! `test_islands.c`, `test_random.c`,
 //! `test_update_settings.c`, `test_api_paths.c`) against the cadmm shared library that cargo
 //! built for this test run, so `cargo test` exercises the C API too (CMake/CTest runs the
 //! full C/C++ suite).
@@ -205,6 +206,11 @@ fn c_test_joints() {
 #[test]
 fn c_test_joint_rows() {
     run("test_joint_rows");
+}
+
+#[test]
+fn c_test_rolling_friction() {
+    run("test_rolling_friction");
 }
 
 #[test]

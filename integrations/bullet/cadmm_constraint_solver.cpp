@@ -61,6 +61,9 @@ void CadmmConstraintSolver::pushValues(const ContactProblem &p) {
     if (p.beyondEqualities() || current_.beyondEqualities())
       check(cadmm_solver_update_joint_rows(solver_, p.lo.data(), p.hi.data(), p.compliance.data()),
             "cadmm_solver_update_joint_rows", solver_);
+    if (p.hasContactBounds())  // the same rows on the same contacts (samePattern)
+      check(cadmm_solver_update_joint_friction(solver_, p.friction.data()),
+            "cadmm_solver_update_joint_friction", solver_);
     return;
   }
   std::unique_ptr<cadmm_problem, void (*)(cadmm_problem *)> problem(p.make(), cadmm_problem_free);

@@ -26,17 +26,22 @@
 // counts mean nothing to cadmm, which solves to its tolerance (btGeneric6DofSpringConstraint
 // still reads m_numIterations into its spring's target speed, as it does for Bullet).
 //
+// Rolling and spinning friction (a contact point with m_combinedRollingFriction > 0, as
+// Bullet's convertContact): three rows on the bodies' relative angular velocity, about the
+// normal (coefficient m_combinedSpinningFriction) and the two tangents (coefficient
+// m_combinedRollingFriction), each bounded by its coefficient times the contact's normal
+// impulse and, as Bullet caps it, by the coefficient itself; cadmm solves them with the
+// contacts (rows bounded by a contact), its Newton phase off for such a group.
+//
 // What it refuses: solveGroup throws cadmm_bullet::Error out of stepSimulation, naming the
 // object and the reason, before anything of the group was written back (bodies, contact
 // points, constraint impulses: the step is not solved), for:
-//  - rolling or spinning friction on a contact (m_combinedRollingFriction or
-//    m_combinedSpinningFriction > 0): cadmm's contacts have no torque rows;
 //  - a soft contact: contact CFM or stiffness and damping (BT_CONTACT_FLAG_HAS_CONTACT_CFM,
 //    BT_CONTACT_FLAG_CONTACT_STIFFNESS_DAMPING), or m_globalCfm != 0 in a group with contact
 //    points (Bullet makes every contact soft with it; cadmm's contacts are rigid). A group
 //    without contact points takes it, as the joint rows' compliance. A contact ERP
 //    (BT_CONTACT_FLAG_HAS_CONTACT_ERP) is only a Baumgarte rate and is mapped;
-//  - anisotropic friction;
+//  - anisotropic friction (sliding or rolling);
 //  - a constraint switched to Bullet's obsolete solver (m_useSolveConstraintObsolete of
 //    btPoint2PointConstraint and btGeneric6DofConstraint): it has no rows;
 //  - a row that is no constraint: a non-finite Jacobian or CFM, a NaN, a negative CFM,

@@ -6,7 +6,7 @@
 // drop-in, and what the drop-in still refuses.
 //
 //   cadmm_bullet_constraint_types [--only SCENE] [--negative-control hinge-limit-off|
-//                                                 motor-unsaturated]
+//                                                 motor-unsaturated|rolling-off|spinning-off]
 //
 // Every step of every scene: stepSimulation throws nothing (a refused constraint fails the
 // scene), each group's solve ends solved, its answer (r, v, lambda) re-measured on the
@@ -23,6 +23,9 @@
 //  - hinge-motor: a motor (target velocity 0) whose max impulse is half that saturates at
 //    exactly its max impulse, and the bar's first step turns it at
 //    (h m g L / 2 - max impulse) / I_pivot.
+// Two closed forms of rolling and spinning friction on a ball (rolling-friction,
+// spinning-friction): the deceleration 5/7 g e / R of a rolling ball, and the stop time
+// I w0 / (e m g) of a spinning one.
 // --negative-control runs one of those checks on a run where it must fail (the limit
 // disabled; the motor's max impulse above the load) and reports it as it would.
 //
@@ -51,7 +54,9 @@ const int kSteps = 60;
 // scenes start apart from the ground, so these steps have joint rows only, where Bullet's
 // rows and cadmm's mapping of them must give the same velocities).
 const int kBulletIterations = 3000, kCompared = 5;
-const double kAgreement = 1e-6;  // m/s, rad/s
+// Relative to the speed (at least 1 m/s or rad/s): the measure's tolerance is relative,
+// and a rolling ball's 20 rad/s carry its rolling rows' error.
+const double kAgreement = 1e-6;
 
 std::vector<std::string> failures;
 
@@ -184,13 +189,13 @@ struct Run {
       if (scene == name && v.size() == firstSteps.size()) {
         apart = 0;
         for (size_t i = 0; i < v.size(); ++i)
-          apart = std::max(apart, std::fabs(v[i] - firstSteps[i]));
+          apart = std::max(apart, std::fabs(v[i] - firstSteps[i]) / std::max(1.0, std::fabs(v[i])));
       } else if (scene == name) {
         ::fail(name, "Bullet's sequential impulses and cadmm ran different numbers of steps");
       }
     if (!std::isnan(apart) && !(apart <= kAgreement))
       ::fail(name, "the first " + std::to_string(kCompared) + " steps' velocities are " +
-                     fmt(apart) + " away from Bullet's sequential impulses at " +
+                     fmt(apart) + " (relative) away from Bullet's sequential impulses at " +
                      std::to_string(kBulletIterations) + " iterations");
     if (unsolved) ::fail(name, std::to_string(unsolved) + " solves ended above the tolerance");
     if (!(worstCadmm <= kTolerance))
@@ -611,6 +616,63 @@ void breaking() {
   run.finish("first step " + fmt(first) + " m/s, enabled " + (j->isEnabled() ? "yes" : "no"));
 }
 
+// ---- rolling and spinning friction --------------------------------------------------------
+
+// A ball of 1 kg resting on the ground whose contact has the rolling and spinning
+// coefficients given: Bullet combines a pair's as e_0 mu_1 + e_1 mu_0 (btManifoldResult),
+// so the ground has none and the ball e / mu_ground.
+btRigidBody *ballOnGround(Run &run, double R, double rolling, double spinning) {
+  btRigidBody *ground = btRigidBody::upcast(run.world->world().getCollisionObjectArray()[0]);
+  ground->setRollingFriction(0), ground->setSpinningFriction(0);
+  btRigidBody *ball = run.world->addSphere(R, 1, btVector3(0, R, 0));
+  ball->setRollingFriction(rolling / ground->getFriction());
+  ball->setSpinningFriction(spinning / ground->getFriction());
+  return ball;
+}
+
+// A 10 cm ball of 1 kg rolling without slipping at 2 m/s, rolling friction e = 0.01 m: the
+// rolling rows brake it at a = 5/7 g e / R, each step exactly h a (the contact's normal
+// impulse m g h = 0.16 keeps e r_n under Bullet's cap e).
+void rollingFriction(bool on) {
+  Run run(on ? "rolling-friction" : "rolling-friction-off");
+  const double R = 0.1, v0 = 2, e = 0.01, a = 5.0 / 7 * kG * e / R;
+  btRigidBody *ball = ballOnGround(run, R, on ? e : 0, 0);
+  ball->setLinearVelocity(btVector3(v0, 0, 0));
+  ball->setAngularVelocity(btVector3(0, 0, -v0 / R));
+  double worst = 0;
+  for (int s = 0; s < kSteps && run.step(); ++s)
+    worst = std::max(worst, std::fabs(ball->getLinearVelocity().x() - (v0 - (s + 1) * kH * a)));
+  const double end = ball->getLinearVelocity().x();
+  if (!(worst < 1e-6))
+    run.fail("the ball's speed is " + fmt(worst) + " m/s off v0 - 5/7 g e t / R (" +
+             fmt(v0 - a) + " m/s after 1 s, it has " + fmt(end) + ")");
+  run.finish("speed after 1 s " + fmt(end) + " m/s (closed form " + fmt(v0 - a) + "), off by " +
+             fmt(worst));
+}
+
+// The same ball spinning at 10 rad/s about the vertical, spinning friction e = 0.005 m: it
+// slows at e m g / I a step and stops at T = I w0 / (e m g) = 0.8155 s, then stays still.
+// (Bullet gives a contact its spinning row only with rolling friction: 0.01 here.)
+void spinningFriction(bool on) {
+  Run run(on ? "spinning-friction" : "spinning-friction-off");
+  const double R = 0.1, w0 = 10, e = 0.005, I = 0.4 * R * R, rate = e * kG / I;
+  btRigidBody *ball = ballOnGround(run, R, 0.01, on ? e : 0);
+  ball->setAngularVelocity(btVector3(0, w0, 0));
+  double worst = 0, stop = NAN;
+  for (int s = 0; s < kSteps && run.step(); ++s) {
+    const double w = ball->getAngularVelocity().y();
+    worst = std::max(worst, std::fabs(w - std::max(w0 - (s + 1) * kH * rate, 0.0)));
+    if (std::isnan(stop) && std::fabs(w) < 1e-9) stop = (s + 1) * kH;
+  }
+  const double T = I * w0 / (e * kG);
+  // The normal impulse is m g h up to Bullet's penetration correction (the ball settles
+  // into the ground by round-off and slop): the decay holds to 1e-5 of w0 over the run.
+  if (!(worst < 1e-5 * w0 && std::fabs(stop - T) <= kH))
+    run.fail("the spin is " + fmt(worst) + " rad/s off its linear decay, stopped at " + fmt(stop) +
+             " s (closed form " + fmt(T) + " s)");
+  run.finish("stopped at " + fmt(stop) + " s (closed form " + fmt(T) + " s), off by " + fmt(worst));
+}
+
 // ---- what stays refused ------------------------------------------------------------------
 
 // Steps a world once and expects the drop-in to refuse it with a message containing `what`.
@@ -631,8 +693,10 @@ void expectRefused(const std::string &name, const std::string &what,
 }
 
 void refusals() {
-  expectRefused("rolling-friction", "rolling or spinning friction", [](Run &run) {
-    run.box(btVector3(0.1, 0.1, 0.1), 1, btVector3(0, 0.099, 0))->setRollingFriction(0.1);
+  expectRefused("anisotropic-rolling", "anisotropic friction", [](Run &run) {
+    btRigidBody *ball = ballOnGround(run, 0.1, 0.01, 0);
+    ball->setAnisotropicFriction(btVector3(1, 0.5, 1),
+                                 btCollisionObject::CF_ANISOTROPIC_ROLLING_FRICTION);
   });
   expectRefused("global-cfm-contact", "m_globalCfm", [](Run &run) {
     run.box(btVector3(0.1, 0.1, 0.1), 1, btVector3(0, 0.099, 0));
@@ -668,7 +732,8 @@ int main(int argc, char **argv) {
     else if (k == "--negative-control" && i + 1 < argc) negative = argv[++i];
     else {
       std::fprintf(stderr, "usage: cadmm_bullet_constraint_types [--only SCENE] "
-                           "[--negative-control hinge-limit-off|motor-unsaturated]\n");
+                           "[--negative-control hinge-limit-off|motor-unsaturated|"
+                           "rolling-off|spinning-off]\n");
       return 64;
     }
   }
@@ -676,6 +741,10 @@ int main(int argc, char **argv) {
     hingeLimit(false);
   } else if (negative == "motor-unsaturated") {
     hingeMotor(false);
+  } else if (negative == "rolling-off") {
+    rollingFriction(false);
+  } else if (negative == "spinning-off") {
+    spinningFriction(false);
   } else if (!negative.empty()) {
     std::fprintf(stderr, "unknown negative control %s\n", negative.c_str());
     return 64;
@@ -696,6 +765,8 @@ int main(int argc, char **argv) {
         {"hinge-motor", [] { hingeMotor(true); }},
         {"global-cfm-joint", globalCfmJoint},
         {"breaking", breaking},
+        {"rolling-friction", [] { rollingFriction(true); }},
+        {"spinning-friction", [] { spinningFriction(true); }},
     };
     bool ran = false;
     for (double damping : {1.0, 0.5}) {

@@ -93,7 +93,8 @@ void ContactProblem::assemble(btCollisionObject **bodies, int numBodies,
   bodies_.clear(), index_.clear(), points_.clear(), rows_.clear(), joints_.clear();
   allJoints_.clear();
   f.clear(), vfree_.clear(), w.clear(), mu.clear(), b.clear();
-  lo.clear(), hi.clear(), compliance.clear();
+  lo.clear(), hi.clear(), compliance.clear(), frictionContact.clear(), friction.clear();
+  torsion_.clear();
 
   for (int i = 0; i < numBodies; ++i) {
     btRigidBody *rb = btRigidBody::upcast(bodies[i]);
@@ -123,6 +124,7 @@ void ContactProblem::assemble(btCollisionObject **bodies, int numBodies,
     allJoints_.push_back(c);
     if (c->isEnabled()) addConstraint(*c, info);
   }
+  addTorsionRows();
 }
 
 void ContactProblem::addBody(btRigidBody *rb, const btContactSolverInfo &info) {
@@ -187,9 +189,6 @@ double ContactProblem::addRow(Csc &J, const btCollisionObject *A, const btVector
 void ContactProblem::addContact(btPersistentManifold *m, btManifoldPoint &cp,
                                 const btContactSolverInfo &info, const Correction &c) {
   const btCollisionObject *A = m->getBody0(), *B = m->getBody1();
-  if (cp.m_combinedRollingFriction > 0 || cp.m_combinedSpinningFriction > 0)
-    throw Error("cadmm_bullet: rolling or spinning friction between " + name(A) + " and " +
-                name(B) + " is not supported: cadmm's contacts have no torque rows");
   if (cp.m_contactPointFlags &
       (BT_CONTACT_FLAG_HAS_CONTACT_CFM | BT_CONTACT_FLAG_CONTACT_STIFFNESS_DAMPING))
     throw Error("cadmm_bullet: soft contact (CFM, stiffness/damping) between " + name(A) +
@@ -201,9 +200,11 @@ void ContactProblem::addContact(btPersistentManifold *m, btManifoldPoint &cp,
                 " makes the contact between " + name(A) + " and " + name(B) +
                 " soft, which cadmm's rigid contacts cannot be (a group without contact "
                 "points takes it)");
-  if (A->hasAnisotropicFriction() || B->hasAnisotropicFriction())
+  const int anisotropic =
+      btCollisionObject::CF_ANISOTROPIC_FRICTION | btCollisionObject::CF_ANISOTROPIC_ROLLING_FRICTION;
+  if (A->hasAnisotropicFriction(anisotropic) || B->hasAnisotropicFriction(anisotropic))
     throw Error("cadmm_bullet: anisotropic friction on " + name(A) + " or " + name(B) +
-                " is not supported: cadmm's friction cones are isotropic");
+                " is not supported: cadmm's friction cones and rolling rows are isotropic");
 
   Point pt{&cp, cp.m_normalWorldOnB, {}, {}};
   btPlaneSpace1(pt.n, pt.t1, pt.t2);
@@ -229,9 +230,44 @@ void ContactProblem::addContact(btPersistentManifold *m, btManifoldPoint &cp,
       approach > 0)
     wN -= cp.m_combinedRestitution * approach;
 
+  // Rolling friction, as btSequentialImpulseConstraintSolver::convertContact: with a
+  // rolling coefficient, the spinning row about n and the rolling rows about btPlaneSpace1(n)
+  // (a zero coefficient's row holds nothing and is left out).
+  if (cp.m_combinedRollingFriction > 0) {
+    const int64_t contact = int64_t(mu.size());
+    if (cp.m_combinedSpinningFriction > 0)
+      torsion_.push_back({A, B, pt.n, cp.m_combinedSpinningFriction, contact});
+    for (const btVector3 &axis : {pt.t1, pt.t2})
+      torsion_.push_back({A, B, axis.normalized(), cp.m_combinedRollingFriction, contact});
+  }
   w.push_back(wN), w.push_back(wT1), w.push_back(wT2);
   mu.push_back(cp.m_combinedFriction);
   points_.push_back(pt);
+}
+
+void ContactProblem::addTorsionRows() {
+  for (const Torsion &t : torsion_) {
+    // Bullet's row: the relative angular velocity (w_B - w_A) . axis, target 0, no CFM; a
+    // fixed body's angular velocity moves to b.
+    double fixedPart = 0;
+    const btCollisionObject *side[2] = {t.A, t.B};
+    for (int s = 0; s < 2; ++s) {
+      const double sign = s == 0 ? -1 : 1;
+      const int i0 = index(side[s]);
+      if (i0 < 0) {
+        const btRigidBody *rb = btRigidBody::upcast(side[s]);
+        if (rb) fixedPart += sign * t.axis.dot(rb->getAngularVelocity());
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) G.push(i0 + k, 0.0);  // the pattern of a joint row's block
+      for (int k = 0; k < 3; ++k) G.push(i0 + 3 + k, sign * t.axis[k]);
+    }
+    G.endColumn();
+    b.push_back(fixedPart);
+    // Bullet bounds the row by min(e r_n, e): the contact's bound, capped by e itself.
+    lo.push_back(-t.coefficient), hi.push_back(t.coefficient), compliance.push_back(0);
+    frictionContact.push_back(t.contact), friction.push_back(t.coefficient);
+  }
 }
 
 void ContactProblem::addConstraint(btTypedConstraint &c, const btContactSolverInfo &info) {
@@ -356,6 +392,7 @@ void ContactProblem::addConstraint(btTypedConstraint &c, const btContactSolverIn
     G.endColumn();
     b.push_back(fixedPart - error - (1 - damping) * jvBefore);
     lo.push_back(l), hi.push_back(u), compliance.push_back(r.cfm * D);
+    frictionContact.push_back(-1), friction.push_back(0);
     rows_.push_back({column, r.j1lin, r.j1ang, r.j2lin, r.j2ang});
   }
 }
@@ -370,6 +407,12 @@ std::vector<bool> ContactProblem::boundedRows() const {
   std::vector<bool> out(lo.size());
   for (size_t k = 0; k < lo.size(); ++k) out[k] = std::isfinite(lo[k]) || std::isfinite(hi[k]);
   return out;
+}
+
+bool ContactProblem::hasContactBounds() const {
+  for (int64_t c : frictionContact)
+    if (c >= 0) return true;
+  return false;
 }
 
 bool ContactProblem::beyondEqualities() const {
@@ -394,6 +437,9 @@ cadmm_problem *ContactProblem::make() const {
     failed = "cadmm_problem_set_joint_bounds";
   else if (beyond && cadmm_problem_set_joint_compliance(p, compliance.data()) != CADMM_OK)
     failed = "cadmm_problem_set_joint_compliance";
+  else if (hasContactBounds() &&
+           cadmm_problem_set_joint_friction(p, frictionContact.data(), friction.data()) != CADMM_OK)
+    failed = "cadmm_problem_set_joint_friction";
   if (failed) {
     const std::string msg = cadmm_last_error();
     cadmm_problem_free(p);

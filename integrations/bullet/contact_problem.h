@@ -16,7 +16,11 @@
 // (getInfo1/getInfo2, as btSequentialImpulseConstraintSolver::convertJoint reads them): G's
 // column is the row's Jacobian, lambda the row's impulse, and Bullet's row equation
 // J v + cfm D lambda = error + (1 - damping) J v_before becomes b and c (contact_problem.cpp,
-// addConstraint).
+// addConstraint). A contact point with rolling friction adds Bullet's three torsional rows
+// after the constraints' (addTorsionRows): the relative angular velocity about the normal
+// (spinning friction) and about the two tangents of btPlaneSpace1 (rolling friction), each
+// bounded by its coefficient times the contact's normal impulse (cadmm's rows bounded by a
+// contact) and by the coefficient itself, as Bullet caps them.
 #pragma once
 
 #include <btBulletDynamicsCommon.h>
@@ -76,7 +80,7 @@ class ContactProblem {
   // rows apart from the equalities (cadmm_solver_update refuses a change of them).
   bool samePattern(const ContactProblem &o) const {
     return M.samePattern(o.M) && H.samePattern(o.H) && G.samePattern(o.G) &&
-           boundedRows() == o.boundedRows();
+           boundedRows() == o.boundedRows() && frictionContact == o.frictionContact;
   }
   // Whether a joint row is bounded or compliant: then cadmm needs the bounds and
   // compliance calls, which cadmm_solver_update_values does not take.
@@ -115,6 +119,7 @@ class ContactProblem {
   void addContact(btPersistentManifold *m, btManifoldPoint &cp, const btContactSolverInfo &info,
                   const Correction &c);
   void addConstraint(btTypedConstraint &c, const btContactSolverInfo &info);
+  void addTorsionRows();
   std::vector<bool> boundedRows() const;
   // One column of H: the relative velocity along d of point pA on A and pB on B;
   // returns the part of that velocity from fixed bodies (their velocity is no unknown).
@@ -144,6 +149,14 @@ class ContactProblem {
   };
   std::vector<InfoRow> info_;
   std::vector<Joint> joints_;                   // the enabled constraints, mapped
+  // A torsional friction row of a contact point, added once the constraints' are.
+  struct Torsion {
+    const btCollisionObject *A, *B;
+    btVector3 axis;
+    double coefficient;
+    int64_t contact;
+  };
+  std::vector<Torsion> torsion_;
   std::vector<btTypedConstraint *> allJoints_;  // every constraint of the group
   std::vector<double> vfree_;
   double h_ = 0;  // time step
@@ -154,6 +167,11 @@ class ContactProblem {
   // Per joint row: the bounds of its multiplier (-INFINITY, INFINITY for none) and its
   // compliance (0 for a rigid row).
   std::vector<double> lo, hi, compliance;
+  // Per joint row: the contact whose normal impulse also bounds it (-1 for none) and the
+  // coefficient of that bound (0 for none): the rolling and spinning friction rows.
+  std::vector<int64_t> frictionContact;
+  std::vector<double> friction;
+  bool hasContactBounds() const;
 };
 
 }  // namespace cadmm_bullet

@@ -90,10 +90,16 @@ double remeasureError(const ContactProblem &p, const double *r, const double *v,
     std::vector<double> jr(nj), freeV(nj, 0.0), freeAbs(n, 0.0), bounded;
     for (size_t k = 0; k < nj; ++k) {
       const double y = gv[k] + p.b[k] + p.compliance[k] * lambda[k];
-      if (std::isinf(p.lo[k]) && std::isinf(p.hi[k])) {
+      double l = p.lo[k], u = p.hi[k];
+      const int64_t c = p.frictionContact[k];
+      if (c >= 0) {  // also bounded by e r_n of its contact
+        const double t = p.friction[k] * std::max(r[3 * c], 0.0);
+        l = std::max(l, -t), u = std::min(u, t);
+      }
+      if (std::isinf(l) && std::isinf(u)) {
         jr[k] = y;
       } else {
-        jr[k] = lambda[k] - std::clamp(lambda[k] - y, p.lo[k], p.hi[k]);
+        jr[k] = lambda[k] - std::clamp(lambda[k] - y, l, u);
         bounded.push_back(lambda[k]);
       }
     }

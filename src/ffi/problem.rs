@@ -4,7 +4,9 @@ use super::arrays::{check_ptr, contact_len, copy, input, path};
 use super::csc::{cadmm_csc, read_csc, Shape};
 use super::handle::release;
 use super::panic::guard;
-use super::result::{cadmm_result, Failure, FfiResult, CADMM_ERR_UNSUPPORTED};
+use super::result::{
+    cadmm_result, Failure, FfiResult, CADMM_ERR_INVALID_VALUE, CADMM_ERR_UNSUPPORTED,
+};
 use crate::measure::problem_error;
 use crate::problem::{GlobalProblem, LocalProblem, Problem};
 use std::ffi::c_char;
@@ -204,6 +206,63 @@ pub unsafe extern "C" fn cadmm_problem_set_joint_compliance(
         // SAFETY: lengths from the problem, as documented above.
         let c = unsafe { input("c", c, np)? }.to_vec();
         *global = global.clone().with_joint_compliance(c)?;
+        Ok(())
+    })
+}
+
+/// Bounds joint rows by a contact's normal impulse, replacing any earlier such bounds:
+/// row `k` with `contact[k] = i >= 0` holds `-e_k r_n(i) <= lambda_k <= e_k r_n(i)`
+/// (`e_k = coefficient[k] >= 0`, `r_n(i)` contact `i`'s normal impulse in the solution),
+/// and is otherwise a bounded row as in `cadmm_problem_set_joint_bounds`: `y_k = 0` inside
+/// its bounds, `y_k >= 0` at the lower one, `y_k <= 0` at the upper one.
+///
+/// This is rolling and spinning friction. Rolling friction is two such rows per contact,
+/// on the bodies' relative angular velocity about the contact's two tangents (`G`'s column
+/// holds `+t` on one body's angular velocity and `-t` on the other's), spinning friction
+/// one row about the normal; `e` is then a length (the torque impulse per unit normal
+/// impulse), `lambda` a torque impulse. A row with `contact[k] = -1` keeps its own bounds and
+/// must have `coefficient[k] = 0`; a row bounded by a contact must have infinite `lo` and
+/// `hi` and at least one entry in `G`'s column.
+///
+/// `contact` and `coefficient` have `p` entries each (`p` the number of joint rows; 0
+/// without joints, when both may be NULL). The Newton phase does not take such rows: a
+/// problem with them is solved by ADMM (`CADMM_VARIANT_NEWTON` refuses it with
+/// `CADMM_ERR_UNSUPPORTED`). On failure the problem is unchanged. Errors:
+/// `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a contact index out of range, a
+/// negative coefficient or one on a row without a contact, a row bounded by a contact with
+/// a finite bound or an empty column), `CADMM_ERR_UNSUPPORTED` (a local problem). Such a
+/// problem cannot be written as an FCLib file.
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_problem_set_joint_friction(
+    p: *mut cadmm_problem,
+    contact: *const i64,
+    coefficient: *const f64,
+) -> cadmm_result {
+    guard(|| {
+        check_ptr("p", p.cast_const())?;
+        // SAFETY: a live handle by contract, used by this thread only.
+        let global = joint_rows_of(unsafe { &mut (*p).inner }, "friction bounds")?;
+        let (np, nc) = (global.n_joints(), global.n_contacts());
+        // SAFETY: lengths from the problem, as documented above.
+        let raw = unsafe { input("contact", contact, np)? };
+        let e = unsafe { input("coefficient", coefficient, np)? }.to_vec();
+        let mut contacts = Vec::with_capacity(np);
+        for (k, &i) in raw.iter().enumerate() {
+            contacts.push(match i {
+                -1 => None,
+                i if i >= 0 && (i as u64) < nc as u64 => Some(i as usize),
+                _ => {
+                    return Err(Failure::new(
+                        CADMM_ERR_INVALID_VALUE,
+                        format!(
+                            "invalid value in contact[{k}]: {i} is neither -1 nor a contact \
+                             index below {nc}"
+                        ),
+                    ))
+                }
+            });
+        }
+        *global = global.clone().with_joint_friction(contacts, e)?;
         Ok(())
     })
 }

@@ -202,6 +202,42 @@ pub unsafe extern "C" fn cadmm_solver_update_joint_rows(
     unsafe { with_mut(sv, body) }
 }
 
+/// New coefficients of the joint rows bounded by contacts' normal impulses (see
+/// `cadmm_problem_set_joint_friction`), for the next time step: `coefficient` has one
+/// entry per joint row (0 on the rows without a contact). Which rows are bounded by which
+/// contact cannot change (`CADMM_ERR_PATTERN_CHANGED` then needs a new solver). Same
+/// behaviour otherwise as `cadmm_solver_update_values`.
+///
+/// Errors: `CADMM_ERR_NULL_POINTER`, `CADMM_ERR_INVALID_VALUE` (a negative coefficient or
+/// one on a row without a contact), `CADMM_ERR_UNSUPPORTED` (a local solver, or a problem
+/// without joints).
+#[no_mangle]
+pub unsafe extern "C" fn cadmm_solver_update_joint_friction(
+    sv: *mut cadmm_solver,
+    coefficient: *const f64,
+) -> cadmm_result {
+    let body = |sv: &mut cadmm_solver| -> FfiResult {
+        if !sv.is_global {
+            return Err(other_form(
+                "cadmm_solver_update_joint_friction: the solver holds a local problem, which \
+                 has no joint rows",
+            ));
+        }
+        let n_joints = sv.value_lens[3];
+        // SAFETY: lengths from the problem the solver was built for; the caller's contract.
+        let values = unsafe {
+            NewValues {
+                friction: Some(input("coefficient", coefficient, n_joints)?),
+                ..Default::default()
+            }
+        };
+        sv.solver.update_values(&values)?;
+        Ok(())
+    };
+    // SAFETY: the caller's contract, forwarded.
+    unsafe { with_mut(sv, body) }
+}
+
 /// The per-step path of a local problem: new values of `W` (its `nnz` entries, in the order
 /// of the arrays passed to `cadmm_problem_new_local`), `q` (`3 n_contacts`) and `mu`
 /// (`n_contacts`), each NULL to keep the current values; same pattern, same behaviour and

@@ -7,7 +7,9 @@ use pyo3::prelude::*;
 
 /// A global problem `M v = H r + G lambda + f`, `u = H^T v + w`, with Coulomb cones of
 /// coefficients `mu` (FCLib conventions, normal first) and joint rows
-/// `G^T v + b + compliance * lambda`: equalities unless bounded, `lo <= lambda <= hi`.
+/// `G^T v + b + compliance * lambda`: equalities unless bounded, `lo <= lambda <= hi`, or
+/// bounded by a contact's normal impulse, `|lambda_k| <= friction[k] r_n(friction_contact[k])`
+/// (rolling and spinning friction; -1 for a row without a contact).
 #[pyclass(frozen, module = "cadmm")]
 pub struct GlobalProblem {
     pub inner: cadmm::GlobalProblem,
@@ -16,7 +18,7 @@ pub struct GlobalProblem {
 #[pymethods]
 impl GlobalProblem {
     #[new]
-    #[pyo3(signature = (M, H, f, w, mu, G=None, b=None, *, lo=None, hi=None, compliance=None))]
+    #[pyo3(signature = (M, H, f, w, mu, G=None, b=None, *, lo=None, hi=None, compliance=None, friction_contact=None, friction=None))]
     #[allow(non_snake_case, clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -30,6 +32,8 @@ impl GlobalProblem {
         lo: Option<&Bound<'_, PyAny>>,
         hi: Option<&Bound<'_, PyAny>>,
         compliance: Option<&Bound<'_, PyAny>>,
+        friction_contact: Option<Vec<i64>>,
+        friction: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let problem = cadmm::GlobalProblem::new(
             matrix(py, "M", M)?,
@@ -63,6 +67,32 @@ impl GlobalProblem {
         let inner = match optional_vector("compliance", compliance)? {
             Some(c) => inner.with_joint_compliance(c).or_raise(py)?,
             None => inner,
+        };
+        let inner = match (friction_contact, optional_vector("friction", friction)?) {
+            (None, None) => inner,
+            (Some(contact), e) => {
+                let e = e.unwrap_or_else(|| vec![0.0; contact.len()]);
+                let mut rows = Vec::with_capacity(contact.len());
+                for (k, &i) in contact.iter().enumerate() {
+                    rows.push(match i {
+                        -1 => None,
+                        i if i >= 0 => Some(i as usize),
+                        _ => {
+                            let what =
+                                format!("friction_contact[{k}] is {i}, neither -1 nor a contact");
+                            return Err(raise(py, "InvalidValueError", &what));
+                        }
+                    });
+                }
+                inner.with_joint_friction(rows, e).or_raise(py)?
+            }
+            (None, Some(_)) => {
+                return Err(raise(
+                    py,
+                    "DimensionError",
+                    "friction given without friction_contact",
+                ))
+            }
         };
         Ok(Self { inner })
     }

@@ -115,7 +115,7 @@ impl Solver {
     /// was built with, or as 1-D arrays of their values in compressed-column order. A
     /// refused update changes nothing. The next solve starts from zero unless
     /// `warm_start` follows.
-    #[pyo3(signature = (*, M=None, H=None, G=None, f=None, w=None, b=None, mu=None, W=None, q=None, lo=None, hi=None, compliance=None))]
+    #[pyo3(signature = (*, M=None, H=None, G=None, f=None, w=None, b=None, mu=None, W=None, q=None, lo=None, hi=None, compliance=None, friction=None))]
     #[allow(non_snake_case, clippy::too_many_arguments)]
     fn update_values(
         &self,
@@ -132,6 +132,7 @@ impl Solver {
         lo: Option<&Bound<'_, PyAny>>,
         hi: Option<&Bound<'_, PyAny>>,
         compliance: Option<&Bound<'_, PyAny>>,
+        friction: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let built = self.problem.bind(py);
         let global = built.cast::<GlobalProblem>().ok().map(|g| &g.get().inner);
@@ -157,6 +158,7 @@ impl Solver {
             optional_vector("hi", hi)?,
             optional_vector("compliance", compliance)?,
         );
+        let friction = optional_vector("friction", friction)?;
         let new = cadmm::NewValues {
             m: m.as_deref(),
             h: h.as_deref(),
@@ -167,6 +169,7 @@ impl Solver {
             lo: lo.as_deref(),
             hi: hi.as_deref(),
             compliance: compliance.as_deref(),
+            friction: friction.as_deref(),
             mu: mu.as_deref(),
             delassus: delassus.as_deref(),
             q: q.as_deref(),

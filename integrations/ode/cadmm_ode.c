@@ -34,10 +34,16 @@ typedef struct body_key {
 } body_key;
 
 /* One joint row: its column of G on the joint's two bodies (a, ODE's first body, and b,
- * the second; world frame, linear then angular) and its b, bounds and compliance. */
+ * the second; world frame, linear then angular) and its b, bounds and compliance. A
+ * contact's rolling or spinning friction row (after the joints' rows) is on the contact's
+ * bodies (a g1's, b g2's); with `contact` >= 0 its bounds are -+ e times that contact's
+ * normal impulse. */
 typedef struct joint_row {
     double ga[6], gb[6];
     double b, lo, hi, c;
+    long contact;   /* a rolling row's contact, -1 for a joint's row */
+    bool by_normal; /* a rolling row bounded by e times its contact's normal impulse */
+    double e;
 } joint_row;
 
 /* A joint of the step and where its rows are. */
@@ -74,6 +80,7 @@ struct cadmm_ode {
     bool assembled; /* the arrays below hold a complete assembly */
     double h;
     size_t n_bodies, n_slots, n_contacts, n_joints, n_rows;
+    size_t n_rolling; /* the last n_rolling of the n_rows rows: contacts' rolling friction */
     buffer bodies;    /* dBodyID per body */
     buffer keys;      /* body_key, sorted by id */
     buffer body_slot; /* long per body: its slot or -1 */
@@ -85,13 +92,14 @@ struct cadmm_ode {
     buffer g_colptr, g_rowind, g_values;
     buffer f, w, mu, r, v, r0;
     buffer jb, jlo, jhi, jc, lambda; /* per joint row */
-    bool any_bounded, any_compliance;
+    buffer jfc, jfe;                 /* per joint row: bounding contact (int64_t), its e */
+    bool any_bounded, any_compliance, any_contact_bounds;
 
     /* The pattern the solver was built for (see assemble), and the bounds and compliance
      * it holds, which cadmm_solver_update_values does not take. */
     buffer pattern, solver_pattern;
     size_t pattern_len, solver_pattern_len;
-    buffer solver_lo, solver_hi, solver_c;
+    buffer solver_lo, solver_hi, solver_c, solver_e;
 
     /* Joint reference poses, sorted by joint. */
     buffer records;
@@ -291,8 +299,6 @@ static const struct {
     int flag;
     const char *why;
 } unsupported_modes[] = {
-    {dContactRolling, "dContactRolling: rolling friction (rho, rho2, rhoN) is not supported yet"},
-    {dContactMu2, "dContactMu2/dContactAxisDep: anisotropic friction is not supported"},
     {dContactFDir1, "dContactFDir1: a given friction direction is not supported"},
     {dContactBounce, "dContactBounce: restitution is not supported"},
     {dContactSoftERP, "dContactSoftERP: a contact's own ERP is not supported"},
@@ -323,6 +329,18 @@ static cadmm_result read_contacts(cadmm_ode *ctx, const dContactGeom *geoms, siz
                 return fail(ctx, CADMM_ERR_INVALID_VALUE,
                             "contact %zu: surface.mu = %g must be finite and not negative", c,
                             sp->mu);
+            /* dContactMu2 is dContactAxisDep: rho2 and rhoN for rolling friction, and mu2
+             * for sliding, which cadmm's isotropic cone takes only equal to mu. */
+            if ((sp->mode & dContactMu2) && sp->mu2 != sp->mu)
+                return fail(ctx, CADMM_ERR_UNSUPPORTED,
+                            "contact %zu: surface mode dContactMu2/dContactAxisDep with mu2 = %g "
+                            "!= mu = %g: anisotropic friction is not supported", c, sp->mu2,
+                            sp->mu);
+            if ((sp->mode & dContactRolling) &&
+                (isnan(sp->rho) || isnan(sp->rho2) || isnan(sp->rhoN)))
+                return fail(ctx, CADMM_ERR_INVALID_VALUE,
+                            "contact %zu: a rolling friction coefficient (rho, rho2, rhoN) is NaN",
+                            c);
         }
         dBodyID b1 = g->g1 ? dGeomGetBody(g->g1) : NULL;
         dBodyID b2 = g->g2 ? dGeomGetBody(g->g2) : NULL;
@@ -432,6 +450,7 @@ static joint_row *row(joint_env *e, double rhs, double cfm) {
     r->c = cfm / e->h;
     r->lo = -INFINITY;
     r->hi = INFINITY;
+    r->contact = -1;
     return r;
 }
 
@@ -909,6 +928,55 @@ static cadmm_result read_joints(cadmm_ode *ctx, dWorldID world) {
     return CADMM_OK;
 }
 
+/* Rolling and spinning friction, as ODE's contact joint writes it (a contact with
+ * dContactRolling and friction, mu > 0): rows on g1's angular velocity minus g2's about t1,
+ * t2 (rolling) and n (spinning), with the coefficients rho, rho2, rhoN (dContactAxisDep;
+ * rho for all three otherwise), a row for each positive one. ODE bounds a row's force by
+ * rho times the normal force with the axis's dContactApprox1 bit (_1, _2, _N: the contact's
+ * e r_n bound here), by rho itself without it ([-rho h, rho h] on the impulse); an infinite
+ * rho is an equality (no rolling). Every row has the world's CFM, as ODE's. */
+static cadmm_result read_rolling(cadmm_ode *ctx, dWorldID world, const dContact *surfaces,
+                                 size_t nc) {
+    ctx->n_rolling = 0;
+    if (!surfaces) return CADMM_OK;
+    const contact *cs = ctx->contacts.data;
+    const double cfm = dWorldGetCFM(world);
+    for (size_t c = 0; c < nc; c++) {
+        const dSurfaceParameters *sp = &surfaces[c].surface;
+        if (!(sp->mode & dContactRolling) || !(sp->mu > 0)) continue;
+        const bool axis_dep = (sp->mode & dContactAxisDep) != 0;
+        const double rho[3] = {sp->rho, axis_dep ? sp->rho2 : sp->rho,
+                               axis_dep ? sp->rhoN : sp->rho};
+        const int approx[3] = {dContactApprox1_1, dContactApprox1_2, dContactApprox1_N};
+        const double *axes[3] = {cs[c].t1, cs[c].t2, cs[c].n};
+        joint_row *rows = reserve(&ctx->rows, ctx->n_rows + 3, sizeof *rows);
+        if (!rows) return fail(ctx, CADMM_ERR_PANIC, "out of memory");
+        for (int i = 0; i < 3; i++) {
+            if (!(rho[i] > 0)) continue;
+            joint_row *r = &rows[ctx->n_rows++];
+            memset(r, 0, sizeof *r);
+            for (int k = 0; k < 3; k++) {
+                r->ga[3 + k] = axes[i][k];
+                r->gb[3 + k] = -axes[i][k];
+            }
+            r->c = cfm / ctx->h;
+            r->lo = -INFINITY;
+            r->hi = INFINITY;
+            r->contact = (long)c;
+            if (isinf(rho[i])) {
+            } else if (sp->mode & approx[i]) {
+                r->by_normal = true;
+                r->e = rho[i];
+            } else {
+                r->lo = -rho[i] * ctx->h;
+                r->hi = rho[i] * ctx->h;
+            }
+            ctx->n_rolling++;
+        }
+    }
+    return CADMM_OK;
+}
+
 void cadmm_ode_forget_joint(cadmm_ode *ctx, dJointID j) {
     if (!ctx) return;
     joint_record *recs = ctx->records.data;
@@ -920,39 +988,50 @@ void cadmm_ode_forget_joint(cadmm_ode *ctx, dJointID j) {
         }
 }
 
-/* G from the rows: each column has a's 6 entries, then b's; every entry is written, zero or
- * not, so that the pattern depends only on the joints' bodies and row counts. Also b, the
- * bounds and the compliance, and whether cadmm needs to be handed the last two. */
-static void assemble_g(cadmm_ode *ctx) {
-    const joint *js = ctx->joints.data;
-    const joint_row *rows = ctx->rows.data;
-    int64_t *colptr = ctx->g_colptr.data, *rowind = ctx->g_rowind.data;
-    double *values = ctx->g_values.data, *b = ctx->jb.data, *lo = ctx->jlo.data,
-           *hi = ctx->jhi.data, *c = ctx->jc.data;
-    int64_t nnz = 0;
-    colptr[0] = 0;
-    ctx->any_bounded = ctx->any_compliance = false;
-    for (size_t j = 0; j < ctx->n_joints; j++) {
-        for (size_t k = js[j].first_row; k < js[j].first_row + js[j].n_rows; k++) {
-            const joint_row *r = &rows[k];
-            long slots[2] = {js[j].slot_a, js[j].slot_b};
-            const double *g[2] = {r->ga, r->gb};
-            for (int side = 0; side < 2; side++) {
-                if (slots[side] < 0) continue;
-                for (int i = 0; i < 6; i++) {
-                    rowind[nnz] = 6 * slots[side] + i;
-                    values[nnz++] = g[side][i];
-                }
-            }
-            colptr[k + 1] = nnz;
-            b[k] = r->b;
-            lo[k] = r->lo;
-            hi[k] = r->hi;
-            c[k] = r->c;
-            ctx->any_bounded = ctx->any_bounded || r->lo > -INFINITY || r->hi < INFINITY;
-            ctx->any_compliance = ctx->any_compliance || r->c != 0.0;
+/* Column k of G, on the bodies in slots a and b (-1 for none), and row k's other arrays;
+ * colptr[k] is where the column starts. */
+static void g_column(cadmm_ode *ctx, size_t k, long a, long b) {
+    const joint_row *r = &((const joint_row *)ctx->rows.data)[k];
+    int64_t *colptr = ctx->g_colptr.data, *rowind = ctx->g_rowind.data, nnz = colptr[k];
+    double *values = ctx->g_values.data;
+    long slots[2] = {a, b};
+    const double *g[2] = {r->ga, r->gb};
+    for (int side = 0; side < 2; side++) {
+        if (slots[side] < 0) continue;
+        for (int i = 0; i < 6; i++) {
+            rowind[nnz] = 6 * slots[side] + i;
+            values[nnz++] = g[side][i];
         }
     }
+    colptr[k + 1] = nnz;
+    ((double *)ctx->jb.data)[k] = r->b;
+    ((double *)ctx->jlo.data)[k] = r->lo;
+    ((double *)ctx->jhi.data)[k] = r->hi;
+    ((double *)ctx->jc.data)[k] = r->c;
+    ((int64_t *)ctx->jfc.data)[k] = r->by_normal ? r->contact : -1;
+    ((double *)ctx->jfe.data)[k] = r->e;
+    ctx->any_bounded = ctx->any_bounded || r->lo > -INFINITY || r->hi < INFINITY;
+    ctx->any_compliance = ctx->any_compliance || r->c != 0.0;
+    ctx->any_contact_bounds = ctx->any_contact_bounds || r->by_normal;
+}
+
+/* G from the rows, the joints' then the contacts' rolling rows: each column has a's 6
+ * entries, then b's; every entry is written, zero or not, so that the pattern depends only
+ * on the joints' and contacts' bodies and row counts. Also b, the bounds, the compliance,
+ * the bounding contacts, and whether cadmm needs to be handed the last three. */
+static void assemble_g(cadmm_ode *ctx) {
+    const joint *js = ctx->joints.data;
+    const contact *cs = ctx->contacts.data;
+    const joint_row *rows = ctx->rows.data;
+    int64_t *colptr = ctx->g_colptr.data, *nnz = &colptr[0];
+    *nnz = 0;
+    ctx->any_bounded = ctx->any_compliance = ctx->any_contact_bounds = false;
+    size_t k = 0;
+    for (size_t j = 0; j < ctx->n_joints; j++)
+        for (size_t end = js[j].first_row + js[j].n_rows; k < end; k++)
+            g_column(ctx, k, js[j].slot_a, js[j].slot_b);
+    for (; k < ctx->n_rows; k++)
+        g_column(ctx, k, cs[rows[k].contact].slot1, cs[rows[k].contact].slot2);
 }
 
 /* H: column 3c+k holds direction d (n, t1, t2) and moment (p - x) x d on g1's body, their
@@ -1046,6 +1125,7 @@ static cadmm_result assemble(cadmm_ode *ctx, dWorldID world, const dBodyID *bodi
             return fail(ctx, CADMM_ERR_INVALID_VALUE, "bodies[%zu] is listed twice", keys[i].index);
     cadmm_result rc = read_contacts(ctx, geoms, stride, surfaces, nc);
     if (rc == CADMM_OK) rc = read_joints(ctx, world);
+    if (rc == CADMM_OK) rc = read_rolling(ctx, world, surfaces, nc);
     if (rc != CADMM_OK) return rc;
 
     /* Slots in body order, so that the pattern is stable while the contacts and joints
@@ -1060,7 +1140,7 @@ static cadmm_result assemble(cadmm_ode *ctx, dWorldID world, const dBodyID *bodi
     contact *cs = ctx->contacts.data;
     joint *js = ctx->joints.data;
     const joint_row *rows = ctx->rows.data;
-    size_t len = 3 + ns + 2 * nc + 3 * nj + nr;
+    size_t len = 3 + ns + 2 * nc + 3 * nj + 3 * nr;
     long *pattern = reserve(&ctx->pattern, len, sizeof *pattern), *at = pattern;
     if (!pattern) return fail(ctx, CADMM_ERR_PANIC, "out of memory");
     *at++ = (long)ns;
@@ -1080,7 +1160,11 @@ static cadmm_result assemble(cadmm_ode *ctx, dWorldID world, const dBodyID *bodi
         *at++ = js[j].slot_b;
         *at++ = (long)js[j].n_rows;
     }
-    for (size_t k = 0; k < nr; k++) *at++ = rows[k].lo > -INFINITY || rows[k].hi < INFINITY;
+    for (size_t k = 0; k < nr; k++) {
+        *at++ = rows[k].lo > -INFINITY || rows[k].hi < INFINITY;
+        *at++ = rows[k].contact;
+        *at++ = rows[k].by_normal;
+    }
     ctx->pattern_len = len;
     if (nc == 0 && nr == 0) {
         ctx->world = world;
@@ -1091,6 +1175,8 @@ static cadmm_result assemble(cadmm_ode *ctx, dWorldID world, const dBodyID *bodi
     size_t n = 6 * ns, h_nnz = 0, g_nnz = 0;
     for (size_t c = 0; c < nc; c++) h_nnz += 3 * 6 * (cs[c].slot2 >= 0 ? 2 : 1);
     for (size_t j = 0; j < nj; j++) g_nnz += js[j].n_rows * 6 * (js[j].slot_b >= 0 ? 2 : 1);
+    for (size_t k = nr - ctx->n_rolling; k < nr; k++)
+        g_nnz += 6 * (cs[rows[k].contact].slot2 >= 0 ? 2 : 1);
     if (!reserve(&ctx->m_colptr, n + 1, sizeof(int64_t)) ||
         !reserve(&ctx->m_rowind, 12 * ns, sizeof(int64_t)) ||
         !reserve(&ctx->m_values, 12 * ns, sizeof(double)) ||
@@ -1104,7 +1190,8 @@ static cadmm_result assemble(cadmm_ode *ctx, dWorldID world, const dBodyID *bodi
         !reserve(&ctx->r, 3 * nc, sizeof(double)) || !reserve(&ctx->r0, 3 * nc, sizeof(double)) ||
         !reserve(&ctx->mu, nc, sizeof(double)) || !reserve(&ctx->jb, nr, sizeof(double)) ||
         !reserve(&ctx->jlo, nr, sizeof(double)) || !reserve(&ctx->jhi, nr, sizeof(double)) ||
-        !reserve(&ctx->jc, nr, sizeof(double)) || !reserve(&ctx->lambda, nr, sizeof(double)))
+        !reserve(&ctx->jc, nr, sizeof(double)) || !reserve(&ctx->lambda, nr, sizeof(double)) ||
+        !reserve(&ctx->jfc, nr, sizeof(int64_t)) || !reserve(&ctx->jfe, nr, sizeof(double)))
         return fail(ctx, CADMM_ERR_PANIC, "out of memory");
 
     double *f = ctx->f.data, *v = ctx->v.data;
@@ -1174,6 +1261,10 @@ static cadmm_result build_problem(cadmm_ode *ctx) {
     if (rc == CADMM_OK && ctx->any_compliance) {
         call = "cadmm_problem_set_joint_compliance";
         rc = cadmm_problem_set_joint_compliance(ctx->problem, ctx->jc.data);
+    }
+    if (rc == CADMM_OK && ctx->any_contact_bounds) {
+        call = "cadmm_problem_set_joint_friction";
+        rc = cadmm_problem_set_joint_friction(ctx->problem, ctx->jfc.data, ctx->jfe.data);
     }
     if (rc == CADMM_OK) return CADMM_OK;
     cadmm_problem_free(ctx->problem);
@@ -1276,23 +1367,26 @@ static cadmm_result limit_solve(cadmm_ode *ctx, double start) {
     return rc == CADMM_OK ? rc : fail_cadmm(ctx, rc, "cadmm_solver_update_settings");
 }
 
-/* The joint rows' bounds and compliance are those the solver holds. */
+/* The joint rows' bounds, compliance and rolling coefficients are those the solver holds. */
 static bool same_limits(const cadmm_ode *ctx) {
     size_t bytes = ctx->n_rows * sizeof(double);
     return bytes == 0 || (memcmp(ctx->jlo.data, ctx->solver_lo.data, bytes) == 0 &&
                           memcmp(ctx->jhi.data, ctx->solver_hi.data, bytes) == 0 &&
-                          memcmp(ctx->jc.data, ctx->solver_c.data, bytes) == 0);
+                          memcmp(ctx->jc.data, ctx->solver_c.data, bytes) == 0 &&
+                          memcmp(ctx->jfe.data, ctx->solver_e.data, bytes) == 0);
 }
 
 static cadmm_result keep_limits(cadmm_ode *ctx) {
     size_t nr = ctx->n_rows;
     if (!reserve(&ctx->solver_lo, nr, sizeof(double)) ||
         !reserve(&ctx->solver_hi, nr, sizeof(double)) ||
-        !reserve(&ctx->solver_c, nr, sizeof(double)))
+        !reserve(&ctx->solver_c, nr, sizeof(double)) ||
+        !reserve(&ctx->solver_e, nr, sizeof(double)))
         return fail(ctx, CADMM_ERR_PANIC, "out of memory");
     memcpy(ctx->solver_lo.data, ctx->jlo.data, nr * sizeof(double));
     memcpy(ctx->solver_hi.data, ctx->jhi.data, nr * sizeof(double));
     memcpy(ctx->solver_c.data, ctx->jc.data, nr * sizeof(double));
+    memcpy(ctx->solver_e.data, ctx->jfe.data, nr * sizeof(double));
     return CADMM_OK;
 }
 
@@ -1332,6 +1426,8 @@ static cadmm_result solve_step(cadmm_ode *ctx, cadmm_ode_step_info *info) {
         if (!same_limits(ctx)) {
             rc = cadmm_solver_update_joint_rows(ctx->solver, ctx->jlo.data, ctx->jhi.data,
                                                 ctx->jc.data);
+            if (rc == CADMM_OK && ctx->any_contact_bounds)
+                rc = cadmm_solver_update_joint_friction(ctx->solver, ctx->jfe.data);
             if (rc == CADMM_ERR_PATTERN_CHANGED) { /* cadmm's own check of the bounded rows */
                 info->rebuilt = true;
                 rc = rebuild(ctx);
@@ -1567,5 +1663,7 @@ cadmm_result cadmm_ode_last_problem(const cadmm_ode *ctx, cadmm_ode_problem *out
     out->hi = ctx->jhi.data;
     out->c = ctx->jc.data;
     out->body_index = ctx->slot_body.data;
+    out->friction_contact = ctx->jfc.data;
+    out->friction = ctx->jfe.data;
     return CADMM_OK;
 }

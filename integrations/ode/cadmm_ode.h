@@ -90,7 +90,7 @@ typedef struct cadmm_ode_options {
 typedef struct cadmm_ode_step_info {
     size_t contacts;      /* contact points solved */
     size_t joints;        /* joints in the problem (enabled, not null) */
-    size_t joint_rows;    /* their rows (columns of G) */
+    size_t joint_rows;    /* their rows and the contacts' rolling rows (columns of G) */
     size_t bodies;        /* bodies in the problem (touched by a contact or a joint) */
     size_t warm_matched;  /* contacts warm started from a previous impulse */
     bool solved;          /* a solve ran (false when there was no contact and no joint row) */
@@ -128,10 +128,21 @@ cadmm_result cadmm_ode_assemble(cadmm_ode *ctx, dWorldID world, const dBodyID *b
 /* cadmm_ode_assemble with ODE's full contacts, as a near callback fills them for
  * dJointCreateContact: each contact's friction coefficient is its surface.mu (finite, not
  * negative). Surface modes the problem cannot express are refused with a message naming
- * the flag (CADMM_ERR_UNSUPPORTED): dContactRolling (rolling friction, rho, rho2, rhoN: not
- * supported yet), dContactMu2/AxisDep, dContactFDir1, dContactBounce, dContactSoftERP,
- * dContactSoftCFM, dContactMotion1/2/N, dContactSlip1/2. The dContactApprox1 flags are
- * accepted: cadmm's cone is the exact one they approximate. */
+ * the flag (CADMM_ERR_UNSUPPORTED): dContactMu2/AxisDep with mu2 != mu (anisotropic
+ * sliding friction), dContactFDir1, dContactBounce, dContactSoftERP, dContactSoftCFM,
+ * dContactMotion1/2/N, dContactSlip1/2. The dContactApprox1 flags are accepted: cadmm's
+ * cone is the exact one they approximate for sliding friction.
+ *
+ * dContactRolling (with mu > 0, as ODE) adds the contact's rolling and spinning friction
+ * rows after the joints' rows, as ODE's contact joint writes them: g1's angular velocity
+ * minus g2's about t1 and t2 (rho; rho2 with dContactAxisDep) and about the normal (rho;
+ * rhoN with dContactAxisDep), a row for each positive coefficient. With the axis's
+ * dContactApprox1 bit (_1, _2, _N) the row's torque is bounded by the coefficient times
+ * the contact's normal force (a row bounded by a contact, cadmm_problem_set_joint_friction),
+ * without it by the coefficient itself; an infinite coefficient holds the axis still. The
+ * rows have the world's CFM, as ODE's, and their multipliers follow the joints' in
+ * cadmm_ode_joint_multipliers. cadmm solves a problem with rows bounded by a contact by
+ * ADMM alone (its Newton phase has no term for such bounds). */
 cadmm_result cadmm_ode_assemble_contacts(cadmm_ode *ctx, dWorldID world, const dBodyID *bodies,
                                          size_t n_bodies, const dContact *contacts,
                                          size_t n_contacts, double h);
@@ -191,6 +202,11 @@ typedef struct cadmm_ode_problem {
     const double *f, *w, *mu;
     const double *b, *lo, *hi, *c; /* n_joint_rows each */
     const size_t *body_index;
+    /* n_joint_rows each: the contact whose normal impulse also bounds the row, -1 for none,
+     * and the coefficient e of that bound (-+ e r_n): rolling friction rows with ODE's
+     * dContactApprox1 bits (cadmm_problem_set_joint_friction). */
+    const int64_t *friction_contact;
+    const double *friction;
 } cadmm_ode_problem;
 
 cadmm_result cadmm_ode_last_problem(const cadmm_ode *ctx, cadmm_ode_problem *out);

@@ -48,7 +48,8 @@ static double diagonal(const cadmm_csc *M, size_t i) {
 }
 
 /* The joint term: ||rho_J|| over its scale. */
-static double joint_term(const cadmm_ode_problem *p, const double *v, const double *lambda) {
+static double joint_term(const cadmm_ode_problem *p, const double *r, const double *v,
+                         const double *lambda) {
     size_t nr = p->n_joint_rows;
     double res = 0.0, gv2 = 0.0, free2 = 0.0, b2 = 0.0, lb2 = 0.0;
     for (size_t k = 0; k < nr; k++) {
@@ -59,9 +60,15 @@ static double joint_term(const cadmm_ode_problem *p, const double *v, const doub
             gv += p->G.values[i] * v[row];
             fv += fabs(p->G.values[i] * (d > 0 ? p->f[row] / d : 0.0));
         }
-        double y = gv + p->b[k] + p->c[k] * lambda[k], rho = y;
-        if (p->lo[k] > -INFINITY || p->hi[k] < INFINITY) {
-            rho = lambda[k] - fmin(fmax(lambda[k] - y, p->lo[k]), p->hi[k]);
+        double y = gv + p->b[k] + p->c[k] * lambda[k], rho = y, lo = p->lo[k], hi = p->hi[k];
+        int64_t c = p->friction_contact ? p->friction_contact[k] : -1;
+        if (c >= 0) { /* also bounded by -+ e r_n of its contact */
+            double t = p->friction[k] * fmax(r[3 * c], 0.0);
+            lo = fmax(lo, -t);
+            hi = fmin(hi, t);
+        }
+        if (c >= 0 || lo > -INFINITY || hi < INFINITY) {
+            rho = lambda[k] - fmin(fmax(lambda[k] - y, lo), hi);
             lb2 += lambda[k] * lambda[k];
         }
         res += rho * rho;
@@ -100,7 +107,7 @@ double check_error(const cadmm_ode_problem *p, const double *r, const double *v,
             for (int k = 0; k < 3; k++) res[3 * c + k] = rc[k] - proj[k];
         }
         e += relative(norm(res, m), fmax(norm(u, m), norm(r, m)));
-        if (nr > 0) e += joint_term(p, v, lambda);
+        if (nr > 0) e += joint_term(p, r, v, lambda);
         if (!isfinite(e)) e = INFINITY;
     }
     free(mv);

@@ -8,7 +8,8 @@
  *
  * Phi(u) = (mu ||u_T||, 0, 0) per contact; joint row k's residual rho_J,k is its velocity
  * y_k = G_k^T v + b_k + c_k lambda_k for an equality (lo, hi infinite) and the natural map
- * lambda_k - P_[lo_k, hi_k](lambda_k - y_k) for a bounded row; D is M's diagonal,
+ * lambda_k - P_[lo_k, hi_k](lambda_k - y_k) for a bounded row (its bounds intersected
+ * with -+ e r_n for a row bounded by a contact's normal impulse); D is M's diagonal,
  * lambda_B the bounded rows' multipliers; a zero denominator is skipped. */
 #ifndef CADMM_ODE_CHECK_H
 #define CADMM_ODE_CHECK_H

@@ -3,6 +3,7 @@
  * step after the failures still works. */
 #include "cadmm_ode.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -119,17 +120,21 @@ int main(void) {
            CADMM_ERR_INVALID_VALUE, "negative CFM");
     dJointDestroy(j);
 
-    /* Contact surfaces (cadmm_ode_assemble_contacts): rolling friction and the other modes
-     * the problem cannot express, and a mu that is not a friction coefficient. */
+    /* Contact surfaces (cadmm_ode_assemble_contacts): the modes the problem cannot
+     * express, a NaN rolling coefficient, and a mu that is not a friction coefficient. */
     dContact full;
     memset(&full, 0, sizeof full);
     full.geom = c;
     full.surface.mu = 0.3;
-    full.surface.mode = dContactRolling;
+    full.surface.mode = dContactRolling | dContactAxisDep;
+    full.surface.mu2 = 0.2;
     full.surface.rho = full.surface.rho2 = full.surface.rhoN = 0.01;
     expect(ctx, cadmm_ode_assemble_contacts(ctx, world, bodies, 2, &full, 1, 0.01),
-           CADMM_ERR_UNSUPPORTED,
-           "dContactRolling: rolling friction (rho, rho2, rhoN) is not supported yet");
+           CADMM_ERR_UNSUPPORTED, "dContactMu2/dContactAxisDep with mu2 = 0.2 != mu = 0.3");
+    full.surface.mu2 = 0.3;
+    full.surface.rhoN = NAN;
+    expect(ctx, cadmm_ode_assemble_contacts(ctx, world, bodies, 2, &full, 1, 0.01),
+           CADMM_ERR_INVALID_VALUE, "rolling friction coefficient (rho, rho2, rhoN) is NaN");
     full.surface.mode = dContactBounce;
     expect(ctx, cadmm_ode_assemble_contacts(ctx, world, bodies, 2, &full, 1, 0.01),
            CADMM_ERR_UNSUPPORTED, "dContactBounce");

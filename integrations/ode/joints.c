@@ -1,7 +1,8 @@
 /*
  * cadmm_ode_joints: ODE joints stepped by cadmm_ode, with closed-form checks.
  *
- *   cadmm_ode_joints --test limit|motor|all-types|match-ode [--seconds S] [--no-stops]
+ *   cadmm_ode_joints --test limit|motor|all-types|match-ode|rolling [--seconds S]
+ *                    [--no-stops] [--no-rolling]
  *
  * Every test steps its world at 60 Hz and checks every step: the solve ended solved, and
  * its answer re-measured on the problem cadmm_ode built (cadmm_ode_last_problem) is within
@@ -38,6 +39,8 @@
  *    stepped by cadmm_ode and by dWorldStep (ODE's exact LCP solve of the same rows): the
  *    bodies' positions agree within MATCH_M and the joints' feedback forces within
  *    MATCH_N: cadmm_ode writes ODE's rows.
+ *  - rolling: balls with rolling and spinning friction (dContactRolling) against their
+ *    closed forms and dWorldStep (see test_rolling); --no-rolling is its negative control.
  *
  * Exit code 0: every check passed; 1: a check failed (one "check failed: ..." line each on
  * stderr); 2: bad arguments or a failed call.
@@ -146,10 +149,14 @@ typedef struct run {
     size_t lambda_cap;
 } run;
 
-/* One host step and its checks; 0, or 2 after a failed call. */
-static int step(run *s, const dContactGeom *contacts, size_t nc) {
+/* One host step and its checks, the contacts given as geoms or (full, not NULL) as
+ * dContacts with their surfaces; 0, or 2 after a failed call. */
+static int step_with(run *s, const dContactGeom *contacts, const dContact *full, size_t nc) {
     cadmm_ode_step_info info;
-    cadmm_result rc = cadmm_ode_step(s->ctx, s->world, s->bodies, s->n, contacts, nc, STEP, &info);
+    cadmm_result rc =
+        full ? cadmm_ode_assemble_contacts(s->ctx, s->world, s->bodies, s->n, full, nc, STEP)
+             : cadmm_ode_assemble(s->ctx, s->world, s->bodies, s->n, contacts, nc, STEP);
+    if (rc == CADMM_OK) rc = cadmm_ode_solve(s->ctx, &info);
     double r[3 * 8] = {0}; /* the worlds here have at most 4 contacts */
     cadmm_ode_problem p;
     if (rc == CADMM_OK) rc = cadmm_ode_impulses(s->ctx, r);
@@ -189,6 +196,10 @@ static int step(run *s, const dContactGeom *contacts, size_t nc) {
     if (rc == CADMM_OK && p.n_joint_rows) rc = cadmm_problem_set_joints(q, &p.G, p.b);
     if (rc == CADMM_OK && p.n_joint_rows) rc = cadmm_problem_set_joint_bounds(q, p.lo, p.hi);
     if (rc == CADMM_OK && p.n_joint_rows) rc = cadmm_problem_set_joint_compliance(q, p.c);
+    bool by_contact = false;
+    for (size_t k = 0; k < p.n_joint_rows; k++) by_contact = by_contact || p.friction_contact[k] >= 0;
+    if (rc == CADMM_OK && by_contact)
+        rc = cadmm_problem_set_joint_friction(q, p.friction_contact, p.friction);
     if (rc == CADMM_OK) rc = cadmm_problem_error_with_multipliers(q, r, v, s->lambda, &e);
     cadmm_problem_free(q);
     if (rc != CADMM_OK) {
@@ -200,6 +211,10 @@ static int step(run *s, const dContactGeom *contacts, size_t nc) {
     if (!(e <= s->max_error)) s->max_error = e;
     if (!(checked <= s->max_checked)) s->max_checked = checked;
     return 0;
+}
+
+static int step(run *s, const dContactGeom *contacts, size_t nc) {
+    return step_with(s, contacts, NULL, nc);
 }
 
 /* The per-step checks over the run. */
@@ -785,11 +800,152 @@ static int test_match_ode(double seconds) {
     return status;
 }
 
+/* ---- rolling ------------------------------------------------------------------------------ */
+
+/* Three 1 kg balls of radius 0.1 m on the ground plane (dContactRolling, mu 0.8):
+ *  - A rolls along x at 2 m/s, rho = 0.01 with dContactApprox1 (the rolling torque bounded
+ *    by rho times the normal force): a = -5/7 g rho / R;
+ *  - B rolls the same way, rho = 0.05 N m without the approximation bits (a torque bound of
+ *    its own): a = -5/7 rho / (m R);
+ *  - C spins about the vertical at 10 rad/s, dContactAxisDep (mu2 = mu) with rhoN = 0.005
+ *    and the approximation bits: w falls by h rhoN m g / I a step and stops at
+ *    T = I w0 / (rhoN m g), then stays still.
+ * Each step's v_x (A, B) and w_z (C) are checked against the closed forms within
+ * ROLL_DRIFT of the initial speed (each step holds momentum to the tolerance relative to
+ * the ball's, and the steps add up: 120 steps x 1e-8 = 1.2e-6, ten times that allowed;
+ * measured 4.8e-7 and 2.3e-6), and the same world stepped by dWorldStep with ODE's own
+ * contact joints must stay within ROLL_MATCH_M (measured 9.8e-7 m over 2 s; both worlds
+ * without CFM: cadmm's contacts are rigid, and ODE's world CFM would let its balls sink
+ * into the ground). --no-rolling drops dContactRolling (the negative control: the balls
+ * keep rolling and spinning, and the checks fail). */
+#define BALL_R 0.1
+#define BALL_M 1.0
+#define ROLL_DRIFT(seconds) (10.0 * (seconds) / STEP * TOLERANCE)
+#define ROLL_MATCH_M 1e-5
+
+typedef struct ball_world {
+    dSpaceID space;
+    dGeomID ground, geoms[3];
+    dJointGroupID contacts; /* ODE's contact joints (the dWorldStep world) */
+} ball_world;
+
+static void build_balls(run *s, ball_world *bw) {
+    bw->space = dSimpleSpaceCreate(0);
+    bw->ground = dCreatePlane(bw->space, 0, 0, 1, 0);
+    bw->contacts = dJointGroupCreate(0);
+    dWorldSetCFM(s->world, 0.0);
+    for (int i = 0; i < 3; i++) {
+        dBodyID b = dBodyCreate(s->world);
+        dMass m;
+        dMassSetSphereTotal(&m, BALL_M, BALL_R);
+        dBodySetMass(b, &m);
+        /* 0.1 mm into the ground, inside the surface layer (no push-out): a ball that ends
+         * a step rising by round-off keeps its contact. */
+        dBodySetPosition(b, 0, 3.0 * i, BALL_R - 1e-4);
+        bw->geoms[i] = dCreateSphere(bw->space, BALL_R);
+        dGeomSetBody(bw->geoms[i], b);
+        s->bodies[s->n++] = b;
+    }
+    dBodySetLinearVel(s->bodies[0], 2, 0, 0);
+    dBodySetAngularVel(s->bodies[0], 0, 2 / BALL_R, 0);
+    dBodySetLinearVel(s->bodies[1], 2, 0, 0);
+    dBodySetAngularVel(s->bodies[1], 0, 2 / BALL_R, 0);
+    dBodySetAngularVel(s->bodies[2], 0, 0, 10);
+}
+
+/* The balls' contacts with the ground, surfaces set (rolling unless `no_rolling`). */
+static int ball_contacts(const ball_world *bw, int no_rolling, dContact out[3]) {
+    int n = 0;
+    for (int i = 0; i < 3; i++) {
+        dContact *c = &out[n];
+        memset(c, 0, sizeof *c);
+        if (dCollide(bw->geoms[i], bw->ground, 1, &c->geom, sizeof *c) != 1) continue;
+        c->surface.mu = 0.8;
+        c->surface.mode = no_rolling ? 0 : dContactRolling;
+        if (i == 0) c->surface.rho = 0.01, c->surface.mode |= dContactApprox1;
+        if (i == 1) c->surface.rho = 0.05;
+        if (i == 2) {
+            c->surface.mode |= dContactAxisDep | dContactApprox1;
+            c->surface.mu2 = c->surface.mu;
+            c->surface.rho = c->surface.rho2 = 0.01;
+            c->surface.rhoN = 0.005;
+        }
+        n++;
+    }
+    return n;
+}
+
+static int test_rolling(double seconds, int no_rolling) {
+    run s = {0}, o = {0};
+    if (start_run(&s) || start_run(&o)) return 2;
+    ball_world bs, bo;
+    build_balls(&s, &bs);
+    build_balls(&o, &bo);
+    const double I = 0.4 * BALL_M * BALL_R * BALL_R, w0 = 10.0;
+    const double a[2] = {5.0 / 7.0 * GRAVITY * 0.01 / BALL_R, 5.0 / 7.0 * 0.05 / (BALL_M * BALL_R)};
+    const double rate = 0.005 * BALL_M * GRAVITY / I, stop_at = I * w0 / (0.005 * BALL_M * GRAVITY);
+    double off_v[2] = {0, 0}, off_w = 0.0, stopped = -1.0, worst_x = 0.0;
+    size_t steps = (size_t)llround(seconds / STEP), rows = 0;
+    int status = 0;
+    for (size_t k = 0; k < steps && !status; k++) {
+        dContact c[3];
+        int nc = ball_contacts(&bs, no_rolling, c);
+        if ((status = step_with(&s, NULL, c, (size_t)nc))) break;
+        if (s.joint_rows_max > rows) rows = s.joint_rows_max;
+        int no = ball_contacts(&bo, no_rolling, c);
+        for (int i = 0; i < no; i++)
+            dJointAttach(dJointCreateContact(o.world, bo.contacts, &c[i]), dGeomGetBody(c[i].geom.g1),
+                         dGeomGetBody(c[i].geom.g2));
+        dWorldStep(o.world, STEP);
+        dJointGroupEmpty(bo.contacts);
+        double t = (double)(k + 1) * STEP;
+        for (int i = 0; i < 2; i++) {
+            double v = dBodyGetLinearVel(s.bodies[i])[0], want = 2.0 - t * a[i];
+            if (!(fabs(v - want) <= off_v[i])) off_v[i] = fabs(v - want);
+        }
+        double w = dBodyGetAngularVel(s.bodies[2])[2], want = fmax(w0 - t * rate, 0.0);
+        if (!(fabs(w - want) <= off_w)) off_w = fabs(w - want);
+        if (stopped < 0 && fabs(w) <= 1e-9) stopped = t;
+        for (size_t i = 0; i < s.n; i++) {
+            const dReal *x = dBodyGetPosition(s.bodies[i]), *y = dBodyGetPosition(o.bodies[i]);
+            double d[3] = {x[0] - y[0], x[1] - y[1], x[2] - y[2]};
+            if (!(norm3(d) <= worst_x)) worst_x = norm3(d);
+        }
+    }
+    if (!status) {
+        check_run(&s, "rolling");
+        printf("rolling: %zu rows; A's speed off 2 - 5/7 g rho t / R by %.3g m/s, B's off "
+               "2 - 5/7 rho t / (m R) by %.3g m/s; C's spin off its decay by %.3g rad/s, "
+               "stopped at %.4g s (closed form %.4g s); bodies within %.3g m of dWorldStep's\n",
+               rows, off_v[0], off_v[1], off_w, stopped, stop_at, worst_x);
+        const double bound_v = 2.0 * ROLL_DRIFT(seconds), bound_w = w0 * ROLL_DRIFT(seconds);
+        if (!(off_v[0] <= bound_v))
+            check_failed("ball A's speed is %.3g m/s off its closed form (bound %.3g)", off_v[0],
+                         bound_v);
+        if (!(off_v[1] <= bound_v))
+            check_failed("ball B's speed is %.3g m/s off its closed form (bound %.3g)", off_v[1],
+                         bound_v);
+        if (!(off_w <= bound_w && fabs(stopped - stop_at) <= STEP))
+            check_failed("ball C's spin is %.3g rad/s off its decay, or it stopped at %.4g s",
+                         off_w, stopped);
+        if (!(worst_x <= ROLL_MATCH_M))
+            check_failed("a ball is %.3g m from dWorldStep's (bound %.3g m)", worst_x,
+                         ROLL_MATCH_M);
+    }
+    dJointGroupDestroy(bs.contacts);
+    dJointGroupDestroy(bo.contacts);
+    dSpaceDestroy(bs.space);
+    dSpaceDestroy(bo.space);
+    end_run(&s);
+    end_run(&o);
+    return status;
+}
+
 static int usage(const char *why) {
     fprintf(stderr,
             "cadmm_ode_joints: %s\n"
-            "usage: cadmm_ode_joints --test limit|motor|all-types|match-ode [--seconds S] "
-            "[--no-stops]\n",
+            "usage: cadmm_ode_joints --test limit|motor|all-types|match-ode|rolling "
+            "[--seconds S] [--no-stops] [--no-rolling]\n",
             why);
     return 2;
 }
@@ -797,10 +953,11 @@ static int usage(const char *why) {
 int main(int argc, char **argv) {
     const char *test = NULL;
     double seconds = 2.0;
-    int no_stops = 0;
+    int no_stops = 0, no_rolling = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--test") && i + 1 < argc) test = argv[++i];
         else if (!strcmp(argv[i], "--no-stops")) no_stops = 1;
+        else if (!strcmp(argv[i], "--no-rolling")) no_rolling = 1;
         else if (!strcmp(argv[i], "--seconds") && i + 1 < argc) {
             char *end;
             seconds = strtod(argv[++i], &end);
@@ -818,7 +975,8 @@ int main(int argc, char **argv) {
     else if (!strcmp(test, "motor")) status = test_motor(seconds);
     else if (!strcmp(test, "all-types")) status = test_all_types(seconds);
     else if (!strcmp(test, "match-ode")) status = test_match_ode(seconds);
-    else status = usage("--test must be limit, motor, all-types or match-ode");
+    else if (!strcmp(test, "rolling")) status = test_rolling(seconds, no_rolling);
+    else status = usage("--test must be limit, motor, all-types, match-ode or rolling");
     dCloseODE();
     if (status) return status;
     printf("%s\n", failures ? "FAILED" : "all checks passed");

@@ -838,8 +838,9 @@ cadmm_result cadmm_settings_set_s_update(struct cadmm_settings *s, const char *m
  * Chooses how the v-update systems `M + rho H H^T` of the global form are solved:
  * "auto" (the default: per island, a cost model weighs the factor's predicted fill
  * against the products of conjugate gradients), "direct" (factorized) or "iterative"
- * (matrix-free preconditioned conjugate gradients, without the Newton phase; systems
- * with joints or a non-symmetric M stay direct). The statistics' `linear_iterations`
+ * (matrix-free preconditioned conjugate gradients, without the Newton phase; joint rows,
+ * equalities included, are then rows of the ADMM splitting; a non-symmetric M stays
+ * direct). The statistics' `linear_iterations`
  * counts the conjugate-gradient iterations. Errors: `CADMM_ERR_NULL_POINTER` (`s` or
  * `name`), `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).
  */

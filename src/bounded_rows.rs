@@ -23,9 +23,21 @@ pub(crate) struct BoundedRows {
 }
 
 impl BoundedRows {
-    /// The bounded rows of `p` (none without joints).
+    /// The bounded rows of `p` (none without joints): the rows a factorized v-update
+    /// system leaves to the splitting, its equalities staying exact in the system.
     pub(crate) fn of(p: &GlobalProblem) -> Self {
-        let rows = p.bounded_rows();
+        Self::with_rows(p, p.bounded_rows())
+    }
+
+    /// Every joint row of `p`, equalities included (as rows with infinite bounds, whose
+    /// proximal step is the compliance's alone): what the matrix-free v-update system,
+    /// which has no place for an exact equality, leaves to the splitting.
+    pub(crate) fn all(p: &GlobalProblem) -> Self {
+        Self::with_rows(p, (0..p.n_joints()).collect())
+    }
+
+    /// The joint rows `rows` of `p`, in order.
+    fn with_rows(p: &GlobalProblem, rows: Vec<usize>) -> Self {
         let Some(j) = &p.joints else {
             return Self::default();
         };

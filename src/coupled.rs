@@ -76,18 +76,16 @@ impl CoupledSolver {
         settings.validate()?;
         let mut resolved = settings.resolved();
         let rho0 = initial_rho(resolved.initial_rho, &problem)?;
-        let (joints, bounded) = match &problem {
-            Problem::Global(g) => (g.n_joints(), g.bounded_rows().len()),
-            Problem::Local(_) => (0, 0),
+        let joints = match &problem {
+            Problem::Global(g) => g.n_joints(),
+            Problem::Local(_) => 0,
         };
-        // The constraint space: the contacts' rows, then the bounded joint rows'.
-        let l = 3 * problem.n_contacts() + bounded;
-        let small = problem.n_velocities() + l + joints <= DENSE_MAX;
+        let n = problem.n_velocities();
         // The global Newton step is solved on the velocities and joints (reduced), the
         // local one on the contact rows.
         let dense_newton = match &problem {
-            Problem::Global(_) => problem.n_velocities() + joints <= DENSE_MAX,
-            Problem::Local(_) => l <= DENSE_MAX,
+            Problem::Global(_) => n + joints <= DENSE_MAX,
+            Problem::Local(_) => 3 * problem.n_contacts() <= DENSE_MAX,
         };
         // Newton's step has no term for a bound that moves with a contact's normal impulse.
         let contact_bounds = match &problem {
@@ -102,6 +100,9 @@ impl CoupledSolver {
             ));
         }
         let mut form = contact_form(problem, settings.linear_solver)?;
+        // The constraint space: the contacts' rows, then the joint rows of the splitting.
+        let l = form.space();
+        let small = n + l + joints <= DENSE_MAX;
         if (form.matrix_free() || contact_bounds) && resolved.newton == NewtonUse::Polish {
             // A Newton phase would factorize what the matrix-free backend avoids.
             resolved.newton = NewtonUse::Off;

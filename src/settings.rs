@@ -52,7 +52,8 @@ pub enum LinearSolver {
     /// Sparse (or dense, for small islands) factorization.
     Direct,
     /// Matrix-free preconditioned conjugate gradients, with no Newton phase (its systems
-    /// are factorized); the local form and systems with joints stay direct.
+    /// are factorized); joint rows, equalities included, are then rows of the splitting.
+    /// The local form and a non-symmetric M stay direct.
     Iterative,
 }
 

@@ -781,6 +781,89 @@ fn newton_solves_bounded_rows_with_contacts() {
     }
 }
 
+/// The matrix-free backend holds every joint row in the splitting (equalities as rows with
+/// infinite bounds): it solves the random scenes of every kind of row to the tolerance by
+/// the independent copy, through conjugate gradients, to the factorized backend's answer;
+/// and it takes new bounds and compliances through an update.
+#[test]
+fn matrix_free_backend_solves_every_kind_of_row() {
+    use cadmm::{LinearSolver, NewValues};
+    for seed in 1..=6 {
+        let p = random_scene(seed, 12);
+        let solve = |linear_solver| {
+            let settings = Settings {
+                tolerance: TOL,
+                linear_solver,
+                ..Default::default()
+            };
+            let mut solver = Solver::new(Problem::Global(p.clone()), settings).unwrap();
+            let status = solver.solve().unwrap();
+            let (s, stats) = (solver.solution().clone(), *solver.stats());
+            let error = common::global_error(&p, &s.r, &s.v, &s.lambda);
+            assert_eq!(
+                status,
+                Status::Solved,
+                "seed {seed} {linear_solver:?}: {stats:?}"
+            );
+            assert!(
+                error <= TOL,
+                "seed {seed} {linear_solver:?}: error {error:e}"
+            );
+            (s, stats, solver)
+        };
+        let (iterative, stats, mut solver) = solve(LinearSolver::Iterative);
+        assert!(
+            stats.linear_iterations > 0,
+            "seed {seed}: no conjugate gradients: {stats:?}"
+        );
+        let (direct, ..) = solve(LinearSolver::Direct);
+        let apart = iterative
+            .v
+            .iter()
+            .zip(&direct.v)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(apart < 1e-6, "seed {seed}: velocities {apart:e} apart");
+        println!(
+            "seed {seed}: matrix-free {} iterations, {} CG iterations; {apart:.1e} from the \
+             factorized answer",
+            stats.iterations, stats.linear_iterations
+        );
+        // New bounds (the same rows bounded) and compliances, through the update.
+        let j = p.joints.as_ref().unwrap();
+        let lo: Vec<f64> =
+            j.lo.iter()
+                .map(|&l| if l.is_finite() { 0.5 * l } else { l })
+                .collect();
+        let hi: Vec<f64> =
+            j.hi.iter()
+                .map(|&h| if h.is_finite() { 0.5 * h } else { h })
+                .collect();
+        let c: Vec<f64> = j.compliance.iter().map(|&c| 2.0 * c).collect();
+        let values = NewValues {
+            lo: Some(&lo),
+            hi: Some(&hi),
+            compliance: Some(&c),
+            ..Default::default()
+        };
+        solver.update_values(&values).unwrap();
+        assert_eq!(
+            solver.solve().unwrap(),
+            Status::Solved,
+            "seed {seed} updated"
+        );
+        let q = p
+            .clone()
+            .with_joint_bounds(lo.clone(), hi.clone())
+            .unwrap()
+            .with_joint_compliance(c.clone())
+            .unwrap();
+        let s = solver.solution();
+        let error = common::global_error(&q, &s.r, &s.v, &s.lambda);
+        assert!(error <= TOL, "seed {seed} updated: error {error:e}");
+    }
+}
+
 /// With a time limit, `auto` starts with Gauss-Seidel sweeps, which clamp a bounded row's
 /// multiplier after its own step; the answer it hands back, swept or handed over, meets
 /// the tolerance by the independent copy.

@@ -99,8 +99,19 @@ struct Run {
 /// `steps` steps of `ball` from the velocities `v0`, one solver for the whole run (the
 /// problem's values change through `update_values`), every answer checked to `TOL`.
 fn roll(ball: Ball, v0: [f64; 6], steps: usize) -> Result<Run, String> {
+    roll_with(ball, v0, steps, cadmm::LinearSolver::Auto)
+}
+
+/// [`roll`] with the v-update backend `linear_solver`.
+fn roll_with(
+    ball: Ball,
+    v0: [f64; 6],
+    steps: usize,
+    linear_solver: cadmm::LinearSolver,
+) -> Result<Run, String> {
     let settings = Settings {
         tolerance: TOL,
+        linear_solver,
         ..Default::default()
     };
     let mut v = v0.to_vec();
@@ -193,6 +204,26 @@ fn ball_rolls_down_a_slope_at_the_predicted_deceleration() {
     let run = roll(free, [0.0; 6], 100).unwrap();
     let err = check_rolling(&ball, &run).unwrap_err();
     assert!(err.contains("expected"), "{err}");
+}
+
+/// The matrix-free backend (every joint row in the splitting) rolls the ball at the same
+/// rate and spins the sphere down at the same time.
+#[test]
+fn matrix_free_backend_rolls_and_spins_the_same() {
+    let ball = Ball {
+        mass: 2.0,
+        radius: 0.1,
+        slope: 20f64.to_radians(),
+        mu: 1.0,
+        rolling: Some(0.01),
+        spinning: Some(0.005),
+        cap: INF,
+    };
+    let iterative = cadmm::LinearSolver::Iterative;
+    check_rolling(&ball, &roll_with(ball, [0.0; 6], 100, iterative).unwrap()).unwrap();
+    let floor = Ball { slope: 0.0, ..ball };
+    let run = roll_with(floor, [0.0, 0.0, 0.0, 0.0, 10.0, 0.0], 120, iterative).unwrap();
+    check_spin_down(&floor, 10.0, &run).unwrap();
 }
 
 /// A row's own bounds cap the contact's (Bullet caps its rolling friction so): below

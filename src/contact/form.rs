@@ -54,6 +54,9 @@ pub(crate) trait ContactForm: Splitting + Send {
     /// Rows of the contact space in the linear systems (`3 nc`, less two per frictionless
     /// contact).
     fn rows(&self) -> usize;
+    /// Length of the constraint space the engine iterates over: the contacts' rows, then
+    /// the joint rows the v-update system leaves to the splitting.
+    fn space(&self) -> usize;
     /// A contact whose normal relative velocity no impulse can change (its normal column
     /// of H, or its normal row of W, is zero) and which approaches there (`w_N < 0`, or
     /// `q_N < 0`): Coulomb's law needs `u_N >= 0`, so the problem has no solution.

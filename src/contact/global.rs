@@ -345,9 +345,14 @@ impl ProblemSplitting {
         let mut active = active_rows(&p.mu);
         active.resize(p.w.len() + p.bounded_rows().len(), 1.0);
         let system = problem_system(&p, &active, backend)?;
+        // The joint rows the system leaves to the splitting follow the contacts' rows.
+        let bounded = system.splitting_rows(&p);
+        active.resize(p.w.len() + bounded.len(), 1.0);
         let dim = p.n() + p.n_joints();
         let norms = shift_norms(&p);
-        Ok(Self::with_system(p, system, dim, active, norms))
+        let mut split = Self::with_system(p, system, dim, active, norms);
+        split.bounded = bounded;
+        Ok(split)
     }
 
     /// Makes the values now in `self.p` the problem's (same patterns): refactorizes M,
@@ -366,7 +371,7 @@ impl ProblemSplitting {
         }
         self.system.own().take_values(&self.p)?;
         self.stale = true;
-        self.bounded = BoundedRows::of(&self.p);
+        self.bounded = self.system.splitting_rows(&self.p);
         [self.norm_mu, self.h_fro] = shift_norms(&self.p);
         self.reset_shift();
         if let Some(newton) = &mut self.newton {
@@ -498,6 +503,10 @@ impl ContactForm for ProblemSplitting {
 
     fn rows(&self) -> usize {
         count_rows(&self.in_pattern)
+    }
+
+    fn space(&self) -> usize {
+        self.in_pattern.len()
     }
 
     fn blocked_contact(&self) -> Option<usize> {

@@ -292,6 +292,10 @@ impl ContactForm for LocalSplitting {
         count_rows(&self.active)
     }
 
+    fn space(&self) -> usize {
+        self.active.len()
+    }
+
     fn blocked_contact(&self) -> Option<usize> {
         self.normal_rows
             .iter()

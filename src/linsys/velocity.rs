@@ -1,6 +1,7 @@
 //! The v-update system of the global form, behind one interface (docs/algorithms.md §4,
 //! §14, §16): `(M + rho H D H^T) v = f + H t` (with joints, the quasi-definite system around
-//! it), where `t` is the x-step's contact-space vector and `D` marks the rows in the system.
+//! it when factorized, the joints' columns beside H's when matrix-free), where `t` is the
+//! x-step's contact-space vector and `D` marks the rows in the system.
 //! Three backends implement it: the factorized system ([`FactorizedSystem`]), the
 //! matrix-free one ([`MatrixFreeSystem`]), and the system shared over processes
 //! (`distributed::DistributedGram`). The global splitting drives each the same way.
@@ -25,8 +26,9 @@ pub(crate) use system::{Accuracy, ContactData, ProblemSystem, VelocitySystem};
 /// The one-process system `choice` asks for. `Auto` (docs/algorithms.md §14) factorizes
 /// unless the system is large and the symbolic analysis predicts a factor whose two
 /// triangular solves cost more than the expected conjugate-gradient products, or a factor
-/// too large for memory. Joints and a non-symmetric M stay direct. M alone is factorized
-/// first: a clear error when it is not positive definite.
+/// too large for memory. A non-symmetric M stays direct, and so do joints unless their
+/// factor is too large for memory. M alone is factorized first: a clear error when it is
+/// not positive definite.
 pub(crate) fn problem_system(
     p: &GlobalProblem,
     active: &[f64],
@@ -34,7 +36,7 @@ pub(crate) fn problem_system(
 ) -> Result<Box<dyn ProblemSystem>, Error> {
     let own = OwnProblem::new(p)?;
     // Checked before anything is assembled: the matrix-free backend never forms the matrix.
-    let eligible = p.n_joints() == 0 && GramPcg::fits(MatrixFreeSystem::gram(p, active));
+    let eligible = GramPcg::fits(MatrixFreeSystem::gram(p, active));
     if eligible && choice == LinearSolver::Iterative {
         return Ok(Box::new(MatrixFreeSystem::new(p, active, own)));
     }
@@ -53,6 +55,11 @@ fn matrix_free_pays(p: &GlobalProblem, factor: &Factor) -> bool {
     let Some(fill) = factor.stored_entries() else {
         return false;
     };
+    if p.n_joints() > 0 {
+        // Joint rows: the factor keeps the equalities exact and the Newton phase; only a
+        // factor too large for memory gives way.
+        return fill > FACTOR_MAX_ENTRIES;
+    }
     if fill < MATRIX_FREE_MIN_FILL {
         return false;
     }

@@ -1,10 +1,13 @@
 //! The matrix-free v-update system: preconditioned conjugate gradients on
-//! `M + rho H D H^T` (symmetric M, no joints), solved as exactly as the last error needs
-//! ([`super::system::inexact_stop`]).
+//! `M + rho H D H^T` (symmetric M), solved as exactly as the last error needs
+//! ([`super::system::inexact_stop`]). Joint rows, equalities included, are rows of the
+//! splitting here (an exact equality would make the system indefinite): the operator is
+//! `M + rho [H G] D [H G]^T`, G's columns after H's (docs/algorithms.md §14).
 
 use super::own_problem::OwnProblem;
 use super::system::{inexact_stop, Accuracy, ProblemSystem, VelocitySystem};
-use crate::csc::norm2;
+use crate::bounded_rows::BoundedRows;
+use crate::csc::{norm2, CscMatrix};
 use crate::linsys::{Gram, GramPcg};
 use crate::problem::GlobalProblem;
 use crate::settings::LinearSolver;
@@ -14,25 +17,49 @@ use crate::types::Error;
 pub(crate) struct MatrixFreeSystem {
     pcg: GramPcg,
     own: OwnProblem,
-    /// The rows in the system as of the last change (the preconditioner's).
+    /// With joint rows: `[H G 0]`, the joint columns after the contacts' and padded with
+    /// empty columns to whole triples (the products go contact by contact); `None` without.
+    stacked: Option<CscMatrix>,
+    /// The rows in the system as of the last change (the preconditioner's), over the
+    /// columns of `[H G 0]` (the padding's 0).
     active: Vec<f64>,
+    /// The splitting's vectors over `[H G]`, padded as `stacked`.
+    t: Vec<f64>,
+    ax: Vec<f64>,
     rhs: Vec<f64>,
     work_n: Vec<f64>,
 }
 
 impl MatrixFreeSystem {
-    /// The solver of `p`'s system with the rows `active` marks.
-    pub fn new(p: &GlobalProblem, active: &[f64], own: OwnProblem) -> Self {
+    /// The solver of `p`'s system with the contact rows `active` marks (entries past the
+    /// contacts' are not read: every joint row takes part).
+    pub fn new(p: &GlobalProblem, active: &[f64], mut own: OwnProblem) -> Self {
+        let stacked = stack_joints(p);
+        let columns = stacked.as_ref().map_or(p.h.ncols(), CscMatrix::ncols);
+        let m = p.w.len();
+        let mut all = vec![0.0; columns];
+        all[..m].copy_from_slice(&active[..m]);
+        all[m..m + p.n_joints()].fill(1.0);
+        own.take_all_rows(p);
+        let operator = stacked.as_ref().unwrap_or(&p.h);
         Self {
-            pcg: GramPcg::new(Self::gram(p, active)),
+            pcg: GramPcg::new(Gram {
+                m: &p.m,
+                h: operator,
+                active: &all,
+            }),
             own,
-            active: active.to_vec(),
+            t: vec![0.0; columns],
+            ax: vec![0.0; columns],
+            active: all,
+            stacked,
             rhs: vec![0.0; p.n()],
             work_n: vec![0.0; p.n()],
         }
     }
 
-    /// The operator `M + rho H D H^T` of `p`.
+    /// The operator `M + rho H D H^T` of `p` (its contacts only: what decides whether the
+    /// backend fits).
     pub fn gram<'a>(p: &'a GlobalProblem, active: &'a [f64]) -> Gram<'a> {
         Gram {
             m: &p.m,
@@ -40,6 +67,28 @@ impl MatrixFreeSystem {
             active,
         }
     }
+}
+
+/// `[H G 0]` for a problem with joints: G's columns after H's, then empty columns up to a
+/// multiple of three.
+fn stack_joints(p: &GlobalProblem) -> Option<CscMatrix> {
+    let j = p.joints.as_ref()?;
+    let (h, g) = (&p.h, &j.g);
+    let mut colptr = h.colptr().to_vec();
+    let mut rowind = h.rowind().to_vec();
+    let mut values = h.values().to_vec();
+    for k in 0..g.ncols() {
+        for (i, x) in g.col(k) {
+            rowind.push(i);
+            values.push(x);
+        }
+        colptr.push(rowind.len());
+    }
+    let columns = h.ncols() + g.ncols();
+    let padded = columns.div_ceil(3) * 3;
+    colptr.resize(padded + 1, rowind.len());
+    let stacked = CscMatrix::new("[H G]", p.n(), padded, colptr, rowind, values);
+    Some(stacked.expect("H and G have n rows and sorted columns"))
 }
 
 impl VelocitySystem for MatrixFreeSystem {
@@ -53,8 +102,16 @@ impl VelocitySystem for MatrixFreeSystem {
         changed: bool,
     ) -> Result<(), Error> {
         if changed {
-            self.active.copy_from_slice(active);
-            self.pcg.take_values(Self::gram(p, active));
+            self.active[..active.len()].copy_from_slice(active);
+            if self.stacked.is_some() {
+                // New values of H or G (the same patterns): stacked again.
+                self.stacked = stack_joints(p);
+            }
+            self.pcg.take_values(Gram {
+                m: &p.m,
+                h: self.stacked.as_ref().unwrap_or(&p.h),
+                active: &self.active,
+            });
         }
         self.pcg.set_rho(rho)
     }
@@ -67,13 +124,20 @@ impl VelocitySystem for MatrixFreeSystem {
         ax: &mut [f64],
         accuracy: Accuracy,
     ) {
+        let (n, rows) = (p.n(), t.len());
         self.rhs.copy_from_slice(&p.f);
-        self.pcg.h_mul_add(t, &mut self.rhs);
+        self.t[..rows].copy_from_slice(t);
+        self.pcg.h_mul_add(&self.t, &mut self.rhs);
         // From the last velocity: a warm start that is close after a few iterations.
         let stop = inexact_stop(accuracy, self.own.equation_scale(), norm2(&self.rhs));
-        self.pcg
-            .solve(Self::gram(p, &self.active), &self.rhs, sol, stop);
-        self.pcg.h_t_mul(sol, ax);
+        let operator = Gram {
+            m: &p.m,
+            h: self.stacked.as_ref().unwrap_or(&p.h),
+            active: &self.active,
+        };
+        self.pcg.solve(operator, &self.rhs, &mut sol[..n], stop);
+        self.pcg.h_t_mul(&sol[..n], &mut self.ax);
+        ax.copy_from_slice(&self.ax[..rows]);
     }
 
     fn h_t_mul(&mut self, p: &GlobalProblem, v: &[f64], out: &mut [f64]) {
@@ -82,7 +146,8 @@ impl VelocitySystem for MatrixFreeSystem {
 
     fn h_norm(&mut self, _p: &GlobalProblem, t: &[f64]) -> f64 {
         self.work_n.fill(0.0);
-        self.pcg.h_mul_add(t, &mut self.work_n);
+        self.t[..t.len()].copy_from_slice(t);
+        self.pcg.h_mul_add(&self.t, &mut self.work_n);
         norm2(&self.work_n)
     }
 
@@ -110,5 +175,9 @@ impl ProblemSystem for MatrixFreeSystem {
 
     fn set_threads(&mut self, threads: usize) {
         self.pcg.set_threads(threads);
+    }
+
+    fn splitting_rows(&self, p: &GlobalProblem) -> BoundedRows {
+        BoundedRows::all(p)
     }
 }

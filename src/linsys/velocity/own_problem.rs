@@ -16,7 +16,8 @@ pub(crate) struct OwnProblem {
     m_mirror: Option<Vec<usize>>,
     measure: MeasureWork,
     lambda: Vec<f64>,
-    /// The joint rows with a finite bound: their multipliers come with the impulses.
+    /// The joint rows the splitting holds (with a finite bound, or all of them): their
+    /// multipliers come with the impulses.
     bounded: Vec<usize>,
 }
 
@@ -31,6 +32,12 @@ impl OwnProblem {
             lambda: vec![0.0; p.n_joints()],
             bounded: p.bounded_rows(),
         })
+    }
+
+    /// Every joint row's multiplier comes with the impulses (a system that leaves all the
+    /// rows to the splitting).
+    pub(super) fn take_all_rows(&mut self, p: &GlobalProblem) {
+        self.bounded = (0..p.n_joints()).collect();
     }
 
     /// Refactorizes M alone for new values (an error when it is not positive definite);

@@ -120,6 +120,12 @@ pub(crate) trait ProblemSystem: VelocitySystem<Data = GlobalProblem> + Send {
 
     /// Threads the products may use (the results do not depend on them).
     fn set_threads(&mut self, _threads: usize) {}
+
+    /// The joint rows the splitting holds beside the contacts' (after them, in this
+    /// order): the bounded ones, the system keeping the equalities exact.
+    fn splitting_rows(&self, p: &GlobalProblem) -> BoundedRows {
+        BoundedRows::of(p)
+    }
 }
 
 impl<T: VelocitySystem + ?Sized> VelocitySystem for Box<T> {

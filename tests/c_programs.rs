@@ -1,7 +1,7 @@
 //! Builds and runs the plain C test programs of `c_tests/` (`test_api_errors.c`,
 //! `test_analytic.c`, `test_joints.c`, `test_joint_rows.c`, `test_rolling_friction.c`,
-//! `test_islands.c`, `test_random.c`,
-//! `test_update_settings.c`, `test_api_paths.c`) against the cadmm shared library that cargo
+//! `test_joint_laws.c`, `test_islands.c`, `test_random.c`, `test_update_settings.c`,
+//! `test_api_paths.c`) against the cadmm shared library that cargo
 //! built for this test run, so `cargo test` exercises the C API too (CMake/CTest runs the
 //! full C/C++ suite).
 //!
@@ -211,6 +211,11 @@ fn c_test_joint_rows() {
 #[test]
 fn c_test_rolling_friction() {
     run("test_rolling_friction");
+}
+
+#[test]
+fn c_test_joint_laws() {
+    run("test_joint_laws");
 }
 
 #[test]

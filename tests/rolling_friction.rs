@@ -89,6 +89,20 @@ impl Ball {
     }
 }
 
+/// The 2 kg ball of radius 0.1 m on a 20 degree slope, mu 1 (it rolls without slipping),
+/// rolling friction 0.01 m and spinning friction 0.005 m.
+fn ball_on_slope() -> Ball {
+    Ball {
+        mass: 2.0,
+        radius: 0.1,
+        slope: 20f64.to_radians(),
+        mu: 1.0,
+        rolling: Some(0.01),
+        spinning: Some(0.005),
+        cap: INF,
+    }
+}
+
 /// What a run gives back: the velocities after each step and the last step's multipliers.
 struct Run {
     velocities: Vec<Vec<f64>>,
@@ -173,15 +187,7 @@ fn check_rolling(ball: &Ball, run: &Run) -> Result<(), String> {
 
 #[test]
 fn ball_rolls_down_a_slope_at_the_predicted_deceleration() {
-    let ball = Ball {
-        mass: 2.0,
-        radius: 0.1,
-        slope: 20f64.to_radians(),
-        mu: 1.0,
-        rolling: Some(0.01),
-        spinning: Some(0.005),
-        cap: INF,
-    };
+    let ball = ball_on_slope();
     let run = roll(ball, [0.0; 6], 100).unwrap();
     check_rolling(&ball, &run).unwrap();
     // The rolling row about z is saturated at e r_n, the others carry nothing.
@@ -210,15 +216,7 @@ fn ball_rolls_down_a_slope_at_the_predicted_deceleration() {
 /// rate and spins the sphere down at the same time.
 #[test]
 fn matrix_free_backend_rolls_and_spins_the_same() {
-    let ball = Ball {
-        mass: 2.0,
-        radius: 0.1,
-        slope: 20f64.to_radians(),
-        mu: 1.0,
-        rolling: Some(0.01),
-        spinning: Some(0.005),
-        cap: INF,
-    };
+    let ball = ball_on_slope();
     let iterative = cadmm::LinearSolver::Iterative;
     check_rolling(&ball, &roll_with(ball, [0.0; 6], 100, iterative).unwrap()).unwrap();
     let floor = Ball { slope: 0.0, ..ball };
@@ -231,13 +229,8 @@ fn matrix_free_backend_rolls_and_spins_the_same() {
 #[test]
 fn own_bounds_cap_the_rolling_resistance() {
     let ball = Ball {
-        mass: 2.0,
-        radius: 0.1,
-        slope: 20f64.to_radians(),
-        mu: 1.0,
-        rolling: Some(0.01),
         spinning: None,
-        cap: INF,
+        ..ball_on_slope()
     };
     let rn = H * ball.mass * G * ball.slope.cos();
     let capped = Ball {
@@ -387,15 +380,7 @@ fn measure_agrees_with_an_independent_copy() {
 /// contact renumbered, and the answer is the one solved whole.
 #[test]
 fn islands_carry_the_rows_with_their_contacts() {
-    let a = Ball {
-        mass: 2.0,
-        radius: 0.1,
-        slope: 20f64.to_radians(),
-        mu: 1.0,
-        rolling: Some(0.01),
-        spinning: Some(0.005),
-        cap: INF,
-    };
+    let a = ball_on_slope();
     let b = Ball {
         mass: 0.5,
         radius: 0.05,

@@ -175,10 +175,10 @@ void cadmm_ode_free(cadmm_ode *ctx) {
                      &ctx->h_values,  &ctx->g_colptr,  &ctx->g_rowind,  &ctx->g_values,
                      &ctx->f,         &ctx->w,         &ctx->mu,        &ctx->r,
                      &ctx->v,         &ctx->r0,        &ctx->jb,        &ctx->jlo,
-                     &ctx->jhi,       &ctx->jc,        &ctx->lambda,    &ctx->pattern,
-                     &ctx->solver_pattern, &ctx->solver_lo, &ctx->solver_hi,
-                     &ctx->solver_c,  &ctx->records,   &ctx->previous,  &ctx->used,
-                     &ctx->pair_keys};
+                     &ctx->jhi,       &ctx->jc,        &ctx->jfc,       &ctx->jfe,
+                     &ctx->lambda,    &ctx->pattern,   &ctx->solver_pattern,
+                     &ctx->solver_lo, &ctx->solver_hi, &ctx->solver_c,  &ctx->solver_e,
+                     &ctx->records,   &ctx->previous,  &ctx->used,      &ctx->pair_keys};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++) free(all[i]->data);
     free(ctx);
 }

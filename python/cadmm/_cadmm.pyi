@@ -1,6 +1,6 @@
 """Type stubs of the compiled extension module (re-exported by ``cadmm``)."""
 
-from typing import Any, Optional, Union
+from typing import Any, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -15,7 +15,7 @@ VectorLike = npt.ArrayLike
 Vector = npt.NDArray[np.float64]
 
 class GlobalProblem:
-    """``M v = H r + G lambda + f``, ``u = H^T v + w``, Coulomb cones ``mu``; joint rows ``G^T v + b + compliance lambda``, bounded by ``lo <= lambda <= hi``."""
+    """``M v = H r + G lambda + f``, ``u = H^T v + w``, Coulomb cones ``mu``; joint rows ``G^T v + b + compliance lambda``, bounded by ``lo <= lambda <= hi`` and, with ``friction_contact[k] >= 0``, by ``|lambda_k| <= friction[k] r_n`` of that contact (rolling and spinning friction)."""
 
     def __init__(
         self,
@@ -30,6 +30,8 @@ class GlobalProblem:
         lo: Optional[VectorLike] = None,
         hi: Optional[VectorLike] = None,
         compliance: Optional[VectorLike] = None,
+        friction_contact: Optional[Sequence[int]] = None,
+        friction: Optional[VectorLike] = None,
     ) -> None: ...
     @property
     def n(self) -> int: ...
@@ -149,6 +151,7 @@ class Solver:
         lo: Optional[VectorLike] = None,
         hi: Optional[VectorLike] = None,
         compliance: Optional[VectorLike] = None,
+        friction: Optional[VectorLike] = None,
     ) -> None: ...
     def warm_start(self, r: VectorLike, v: Optional[VectorLike] = None) -> None: ...
     def update_settings(self, settings: Settings) -> None: ...

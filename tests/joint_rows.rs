@@ -861,6 +861,25 @@ fn matrix_free_backend_solves_every_kind_of_row() {
         let s = solver.solution();
         let error = common::global_error(&q, &s.r, &s.v, &s.lambda);
         assert!(error <= TOL, "seed {seed} updated: error {error:e}");
+        // New values of G (the same pattern), which the stacked operator `[H G]` takes.
+        let g = &q.joints.as_ref().unwrap().g;
+        let doubled: Vec<f64> = g.values().iter().map(|x| 2.0 * x).collect();
+        let values = NewValues {
+            g: Some(&doubled),
+            ..Default::default()
+        };
+        solver.update_values(&values).unwrap();
+        assert_eq!(solver.solve().unwrap(), Status::Solved, "seed {seed} new G");
+        let mut r = q.clone();
+        r.joints
+            .as_mut()
+            .unwrap()
+            .g
+            .set_values("G", &doubled)
+            .unwrap();
+        let s = solver.solution();
+        let error = common::global_error(&r, &s.r, &s.v, &s.lambda);
+        assert!(error <= TOL, "seed {seed} new G: error {error:e}");
     }
 }
 

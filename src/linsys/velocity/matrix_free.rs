@@ -23,6 +23,8 @@ pub(crate) struct MatrixFreeSystem {
     /// The rows in the system as of the last change (the preconditioner's), over the
     /// columns of `[H G 0]` (the padding's 0).
     active: Vec<f64>,
+    /// The values of `[H G]`, gathered when H's or G's change (kept: no allocation then).
+    stacked_values: Vec<f64>,
     /// The splitting's vectors over `[H G]`, padded as `stacked`.
     t: Vec<f64>,
     ax: Vec<f64>,
@@ -52,6 +54,9 @@ impl MatrixFreeSystem {
             t: vec![0.0; columns],
             ax: vec![0.0; columns],
             active: all,
+            stacked_values: stacked
+                .as_ref()
+                .map_or_else(Vec::new, |s| s.values().to_vec()),
             stacked,
             rhs: vec![0.0; p.n()],
             work_n: vec![0.0; p.n()],
@@ -66,6 +71,25 @@ impl MatrixFreeSystem {
             h: &p.h,
             active,
         }
+    }
+}
+
+impl MatrixFreeSystem {
+    /// `[H G 0]` takes the values now in `p` (the same patterns: H's stored values, then
+    /// G's, the padding empty), without allocating: this runs whenever the active rows
+    /// change, screening included.
+    fn restack(&mut self, p: &GlobalProblem) {
+        let (Some(stacked), Some(j)) = (&mut self.stacked, &p.joints) else {
+            return;
+        };
+        self.stacked_values.clear();
+        self.stacked_values.extend_from_slice(p.h.values());
+        self.stacked_values.extend_from_slice(j.g.values());
+        // Built from sorted columns, `[H G 0]` takes its values in storage order; they are
+        // the problem's, already checked finite.
+        stacked
+            .set_values("[H G]", &self.stacked_values)
+            .expect("the problem's values on the stacked pattern");
     }
 }
 
@@ -103,10 +127,7 @@ impl VelocitySystem for MatrixFreeSystem {
     ) -> Result<(), Error> {
         if changed {
             self.active[..active.len()].copy_from_slice(active);
-            if self.stacked.is_some() {
-                // New values of H or G (the same patterns): stacked again.
-                self.stacked = stack_joints(p);
-            }
+            self.restack(p);
             self.pcg.take_values(Gram {
                 m: &p.m,
                 h: self.stacked.as_ref().unwrap_or(&p.h),

@@ -5,7 +5,7 @@
 //! impulse (rolling or spinning friction) is clamped into `[-e r_n, e r_n]` as well, with the `r_n`
 //! the same y-step has just projected (docs/algorithms.md §1.4).
 
-use crate::problem::GlobalProblem;
+use crate::problem::{contact_bounds, GlobalProblem};
 
 /// The joint rows with a finite bound, as the splitting reads them: which column of `G`
 /// each is, its bounds, its compliance and its `b`.
@@ -66,10 +66,7 @@ impl BoundedRows {
     pub(crate) fn bounds(&self, q: usize, normal: impl Fn(usize) -> f64) -> (f64, f64) {
         let (lo, hi) = (self.lo[q], self.hi[q]);
         match self.friction[q] {
-            Some((i, e)) => {
-                let t = e * normal(i).max(0.0);
-                (lo.max(-t), hi.min(t))
-            }
+            Some((i, e)) => contact_bounds(lo, hi, e, normal(i)),
             None => (lo, hi),
         }
     }

@@ -65,10 +65,7 @@ impl Joints {
     pub fn bounds(&self, k: usize, r: &[f64]) -> (f64, f64) {
         let (lo, hi) = (self.lo[k], self.hi[k]);
         match self.friction_contact[k] {
-            Some(i) => {
-                let t = self.friction[k] * r[3 * i].max(0.0);
-                (lo.max(-t), hi.min(t))
-            }
+            Some(i) => contact_bounds(lo, hi, self.friction[k], r[3 * i]),
             None => (lo, hi),
         }
     }
@@ -193,6 +190,15 @@ fn check_friction(contact: &[Option<usize>], e: &[f64], p: usize) -> Result<(), 
         });
     }
     Ok(())
+}
+
+/// The bounds `[lo, hi]` of a row bounded by a contact of normal impulse `rn` with the
+/// coefficient `e`: intersected with `-+ e rn` (a negative `rn`, which only an iterate can
+/// have, counts as zero). The one rule the measure, the sweeps and the splitting share.
+#[inline]
+pub(crate) fn contact_bounds(lo: f64, hi: f64, e: f64, rn: f64) -> (f64, f64) {
+    let t = e * rn.max(0.0);
+    (lo.max(-t), hi.min(t))
 }
 
 /// Whether the bounds `[lo, hi]` hold a finite one (the row is then an inequality).

@@ -964,6 +964,7 @@ static cadmm_result read_rolling(cadmm_ode *ctx, dWorldID world, const dContact 
             r->hi = INFINITY;
             r->contact = (long)c;
             if (isinf(rho[i])) {
+                /* no bound: the equality that holds the axis still */
             } else if (sp->mode & approx[i]) {
                 r->by_normal = true;
                 r->e = rho[i];

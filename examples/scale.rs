@@ -5,8 +5,15 @@
 //!
 //! ```sh
 //! cargo run --release --features fclib --example scale -- --dump DIR \
-//!     [--sizes 1000,2800,10000,25000,100000] [--kinds lattice,irregular]
+//!     [--sizes 1000,2800,10000,25000,100000] [--kinds lattice,irregular] \
+//!     [--radii 0.35:0.5] [--jitter 1] [--gap 0.1] [--mu 0.5] [--seed N]
 //! ```
+//!
+//! The last five shape the irregular pile (`scenes::PileShape`; the defaults are
+//! `scenes::PILE_SHAPE`): radii uniform in `--radii`, drop sites moved up to `--jitter`
+//! times their free room from the lattice, contacts where gaps are below `--gap` times the
+//! smaller radius, friction `--mu`, and the random stream's `--seed`. A pile of another
+//! shape is written with the shape in its name.
 //!
 //! A size is a target contact count (`2800`: cubic-ish lattices, twice as tall as wide,
 //! sized to come near it) or lattice dimensions (`20x20x87`). One line per pile: its
@@ -33,6 +40,41 @@ struct Args {
     dump: Option<String>,
     sizes: Vec<Size>,
     kinds: Vec<String>,
+    shape: scenes::PileShape,
+}
+
+fn number<T: std::str::FromStr>(flag: &str, v: &str) -> Result<T, String> {
+    v.parse().map_err(|_| format!("{flag} {v}: not a number"))
+}
+
+/// The shape's flags, checked against each other.
+fn check_shape(s: &scenes::PileShape) -> Result<(), String> {
+    let fine = 0.0 < s.r_min
+        && s.r_min <= s.r_max
+        && s.r_max <= 0.5
+        && (0.0..=1.0).contains(&s.jitter)
+        && s.gap_fraction > 0.0
+        && s.mu >= 0.0;
+    match fine {
+        true => Ok(()),
+        false => Err(format!(
+            "pile shape {s:?}: needs 0 < r_min <= r_max <= 0.5, jitter in [0, 1], gap > 0, mu >= 0"
+        )),
+    }
+}
+
+/// The shape in a file name, empty for the default one.
+fn shape_label(s: &scenes::PileShape) -> String {
+    let d = scenes::PILE_SHAPE;
+    let same = (s.r_min, s.r_max, s.jitter, s.gap_fraction, s.mu, s.seed)
+        == (d.r_min, d.r_max, d.jitter, d.gap_fraction, d.mu, d.seed);
+    match same {
+        true => String::new(),
+        false => format!(
+            "-r{}-{}-j{}-g{}-mu{}-s{}",
+            s.r_min, s.r_max, s.jitter, s.gap_fraction, s.mu, s.seed
+        ),
+    }
 }
 
 fn parse_size(v: &str) -> Result<Size, String> {
@@ -56,6 +98,7 @@ fn parse() -> Result<Args, String> {
             .map(Size::Contacts)
             .to_vec(),
         kinds: vec!["lattice".into(), "irregular".into()],
+        shape: scenes::PILE_SHAPE,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -78,9 +121,22 @@ fn parse() -> Result<Args, String> {
                     return Err(format!("--kinds: expected lattice or irregular, got {k}"));
                 }
             }
+            "--radii" => {
+                let v = value()?;
+                let (lo, hi) = v
+                    .split_once(':')
+                    .ok_or(format!("--radii {v}: expected MIN:MAX"))?;
+                a.shape.r_min = number("--radii", lo)?;
+                a.shape.r_max = number("--radii", hi)?;
+            }
+            "--jitter" => a.shape.jitter = number(&flag, &value()?)?,
+            "--gap" => a.shape.gap_fraction = number(&flag, &value()?)?,
+            "--mu" => a.shape.mu = number(&flag, &value()?)?,
+            "--seed" => a.shape.seed = number(&flag, &value()?)?,
             _ => return Err(format!("unknown argument {flag}")),
         }
     }
+    check_shape(&a.shape)?;
     Ok(a)
 }
 
@@ -90,10 +146,10 @@ fn side(target: usize) -> usize {
     ((target as f64 / 6.0).cbrt().round() as usize).max(1)
 }
 
-fn build(kind: &str, size: Size) -> (Scene, (usize, usize, usize)) {
+fn build(kind: &str, size: Size, shape: &scenes::PileShape) -> (Scene, (usize, usize, usize)) {
     let make = |(x, y, z)| match kind {
         "lattice" => scenes::pile(x, y, z),
-        _ => scenes::irregular_pile(x, y, z),
+        _ => scenes::irregular_pile_shaped(x, y, z, shape),
     };
     let dims = match size {
         Size::Dims(x, y, z) => (x, y, z),
@@ -145,14 +201,14 @@ fn main() -> ExitCode {
     );
     for &size in &args.sizes {
         for kind in &args.kinds {
-            let (scene, (x, y, z)) = build(kind, size);
+            let (scene, (x, y, z)) = build(kind, size, &args.shape);
             let nc = scene.contacts.len();
             let global = scene.global();
             let nnz = global.h.nnz();
-            let file = args
-                .dump
-                .as_ref()
-                .map(|d| format!("{d}/{kind}-pile-{nc}.hdf5"));
+            let file = args.dump.as_ref().map(|d| match kind.as_str() {
+                "lattice" => format!("{d}/{kind}-pile-{nc}.hdf5"),
+                _ => format!("{d}/{kind}-pile-{nc}{}.hdf5", shape_label(&args.shape)),
+            });
             if let Some(path) = &file {
                 if let Err(e) = dump(path, global) {
                     eprintln!("scale: {e}");

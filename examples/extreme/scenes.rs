@@ -397,12 +397,34 @@ pub fn pile(nx: usize, ny: usize, nz: usize) -> Scene {
     s
 }
 
-/// Widest radius spread of [`irregular_pile`]: radii are uniform in `[R_MIN, R_MAX]`.
-pub const R_MIN: f64 = 0.35;
-pub const R_MAX: f64 = 0.5;
-/// Two spheres (or a sphere and the ground) are in contact when their gap is below this
-/// fraction of the smaller radius.
-pub const GAP_FRACTION: f64 = 0.1;
+/// How [`irregular_pile_shaped`] draws its spheres and contacts: the scale benchmark varies
+/// these so that no figure holds on one generator's piles alone.
+#[derive(Clone, Copy, Debug)]
+pub struct PileShape {
+    /// Radii are uniform in `[r_min, r_max]`, `r_max <= 0.5` (the lattice's spacing is 1).
+    pub r_min: f64,
+    /// See `r_min`.
+    pub r_max: f64,
+    /// A drop site moves at most this fraction of `0.5 - r` from its lattice site.
+    pub jitter: f64,
+    /// Two spheres (or a sphere and the ground) are in contact when their gap is below this
+    /// fraction of the smaller radius.
+    pub gap_fraction: f64,
+    /// Every contact's friction coefficient.
+    pub mu: f64,
+    /// Seed of the radii, sites and velocities.
+    pub seed: u64,
+}
+
+/// The shape of [`irregular_pile`], the scale benchmark's first pile.
+pub const PILE_SHAPE: PileShape = PileShape {
+    r_min: 0.35,
+    r_max: 0.5,
+    jitter: 1.0,
+    gap_fraction: 0.1,
+    mu: 0.5,
+    seed: 0x9E37_79B9_7F4A_7C15,
+};
 
 /// The upper of the two points at distances `d` from the centres `c` (a sphere resting on
 /// three), if they exist.
@@ -432,19 +454,32 @@ fn touching(c: [V3; 3], d: [f64; 3]) -> Option<V3> {
     Some([0, 1, 2].map(|k| c[0][k] + x * ex[k] + y * ey[k] + z * ez[k]))
 }
 
+/// [`irregular_pile_shaped`] with [`PILE_SHAPE`].
+pub fn irregular_pile(nx: usize, ny: usize, nz: usize) -> Scene {
+    irregular_pile_shaped(nx, ny, nz, &PILE_SHAPE)
+}
+
 /// An irregular pile of about `nx x ny x nz` polydisperse spheres (radii uniform in
-/// `[R_MIN, R_MAX]`, density such that a sphere of radius 0.5 weighs 1, small random
+/// `[r_min, r_max]`, density such that a sphere of radius 0.5 weighs 1, small random
 /// velocities), dropped one by one over the sites of a jittered lattice whose odd layers sit
 /// over the hollows of the even ones: each settles in the lowest hollow of three spheres
 /// below within 0.5 of its site, or straight down where there is none, so spheres rest on
 /// spheres of other columns. Contacts join the pairs, and the spheres and the ground, whose
-/// gap is below `GAP_FRACTION` times the smaller radius: the normal joins the centres, the
+/// gap is below `gap_fraction` times the smaller radius: the normal joins the centres, the
 /// point is midway across the gap, and `w_N = gap / STEP`, so the gap may close within the
 /// step but not be crossed. No two spheres overlap. Bottom spheres that end up in no
 /// contact but the ground's are left out, so the pile is one island. Deterministic.
-pub fn irregular_pile(nx: usize, ny: usize, nz: usize) -> Scene {
+pub fn irregular_pile_shaped(nx: usize, ny: usize, nz: usize, shape: &PileShape) -> Scene {
+    let PileShape {
+        r_min,
+        r_max,
+        jitter,
+        gap_fraction,
+        mu,
+        seed,
+    } = *shape;
     let mut s = Scene::default();
-    let mut rand = uniform(0x9E37_79B9_7F4A_7C15);
+    let mut rand = uniform(seed);
     let mut radius: Vec<f64> = Vec::with_capacity(nx * ny * nz);
     // Spheres placed so far by unit column cell of the horizontal plane (cells 0..=nx, 0..=ny
     // hold every centre): a drop only looks at the 3 x 3 cells around it.
@@ -455,10 +490,13 @@ pub fn irregular_pile(nx: usize, ny: usize, nz: usize) -> Scene {
         let shift = 0.5 * (k % 2) as f64;
         for j in 0..ny {
             for i in 0..nx {
-                let r = R_MIN + (R_MAX - R_MIN) * rand();
+                let r = r_min + (r_max - r_min) * rand();
                 // Within the disc of radius 0.5 - r around the lattice site, so that spheres
                 // of one layer never overlap.
-                let (rho, phi) = ((0.5 - r) * rand().sqrt(), std::f64::consts::TAU * rand());
+                let (rho, phi) = (
+                    jitter * (0.5 - r) * rand().sqrt(),
+                    std::f64::consts::TAU * rand(),
+                );
                 let (x0, y0) = (
                     i as f64 + shift + rho * phi.cos(),
                     j as f64 + shift + rho * phi.sin(),
@@ -530,7 +568,7 @@ pub fn irregular_pile(nx: usize, ny: usize, nz: usize) -> Scene {
         }
     }
     // Pairs within reach, by cells of the largest contact distance (27 cells per sphere).
-    let size = 2.0 * R_MAX * (1.0 + GAP_FRACTION);
+    let size = 2.0 * r_max * (1.0 + gap_fraction);
     let key = |p: V3| {
         (
             (p[0] / size).floor() as i64,
@@ -545,14 +583,14 @@ pub fn irregular_pile(nx: usize, ny: usize, nz: usize) -> Scene {
     }
     for a in 0..s.bodies.len() {
         let (xa, ra) = (s.bodies[a].x, radius[a]);
-        if xa[2] - ra < GAP_FRACTION * ra {
+        if xa[2] - ra < gap_fraction * ra {
             let gap = xa[2] - ra;
             s.contacts.push(Contact {
                 a,
                 b: None,
                 point: [xa[0], xa[1], 0.5 * gap],
                 normal: [0.0, 0.0, 1.0],
-                mu: 0.5,
+                mu,
                 w: [gap / STEP, 0.0, 0.0],
             });
         }
@@ -571,7 +609,7 @@ pub fn irregular_pile(nx: usize, ny: usize, nz: usize) -> Scene {
                         let d = sub(xa, xb);
                         let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
                         let gap = dist - ra - rb;
-                        if gap < GAP_FRACTION * ra.min(rb) {
+                        if gap < gap_fraction * ra.min(rb) {
                             // n from b to a; the point midway between the two surfaces.
                             let n = [d[0] / dist, d[1] / dist, d[2] / dist];
                             let t = rb + 0.5 * gap;
@@ -580,7 +618,7 @@ pub fn irregular_pile(nx: usize, ny: usize, nz: usize) -> Scene {
                                 b: Some(b),
                                 point: [xb[0] + t * n[0], xb[1] + t * n[1], xb[2] + t * n[2]],
                                 normal: n,
-                                mu: 0.5,
+                                mu,
                                 w: [gap / STEP, 0.0, 0.0],
                             });
                         }

@@ -98,8 +98,8 @@ pub const NEWTON_DENSE_STEP_ITERATIONS: f64 = 5.0;
 /// still needed; past them it ends as a failed phase. `auto` then costs at most about that
 /// much more than ADMM alone (an engine's pile of 31 bricks had phases of 20 to 98 steps,
 /// 0.05 to 0.35 s, where ADMM needed 10 ms). A rescue (a handover on a stall above the
-/// handover error) within 10 times the tolerance, from above the handover error, may take
-/// the steps that cost the ADMM iterations run before it (`HandoverMonitor::newton_budget`).
+/// handover error) is not bounded, and comes only from more than 10 times above the
+/// tolerance (`HandoverMonitor::newton_budget`).
 pub const NEWTON_BUDGET: f64 = 1.0;
 
 /// Newton steps allowed per Newton phase with ADMM to fall back on. Newton itself stops a

@@ -54,9 +54,6 @@ pub(super) struct HandoverMonitor {
     admm_iterations_left: f64,
     /// The last evaluation was at or below `error_below`.
     polishing: bool,
-    /// Iterations of this loop and error at the last evaluation.
-    iterations: usize,
-    last_error: f64,
     /// The lowest error measured so far.
     best: f64,
 }
@@ -73,8 +70,6 @@ impl HandoverMonitor {
             window: [(f64::INFINITY, 0); RATE_WINDOW],
             admm_iterations_left: f64::INFINITY,
             polishing: false,
-            iterations: 0,
-            last_error: f64::INFINITY,
             best: f64::INFINITY,
         }
     }
@@ -83,8 +78,6 @@ impl HandoverMonitor {
     /// the loop should hand over now.
     pub(super) fn hand_over(&mut self, error: f64, iterations: usize) -> bool {
         self.admm_iterations_left = self.iterations_left(error, iterations);
-        self.iterations = iterations;
-        self.last_error = error;
         // The first evaluation gives no rate: ADMM may be about to finish.
         let rated = self.checks > 0;
         if self.checks == 0 {
@@ -106,33 +99,31 @@ impl HandoverMonitor {
             true => newton < self.admm_iterations_left,
             false => stalled,
         };
-        rated && (self.polishing || stalled) && pays
+        // A stall within RESCUE_FAR of the tolerance, above the handover error, is no
+        // rescue: ADMM is within a decade of the end there (see `newton_budget`).
+        let near = error <= RESCUE_FAR * self.tolerance && error > HANDOVER_ERROR;
+        rated && (self.polishing || (stalled && !near)) && pays
     }
 
     /// How many steps the Newton phase after a handover may take before it no longer pays:
     /// the steps that cost ADMM's predicted iterations to the tolerance when it handed over
     /// below `error_below` (at least one). A handover on a stall is a rescue, not a polish:
-    /// ADMM's estimate, from a rate near 1, says little there. From a stall more than
-    /// [`RESCUE_FAR`] times above the tolerance the phase has no limit: ADMM's cost grows
-    /// with the decades still to go and Newton's hardly does (Newton took 111 to 175 steps
-    /// from stalls at 4e-4 on Box_Stacks-i1000-444-8 at 1e-8, where a phase cut short
-    /// at ADMM's predicted iterations tripled the solve). Within that factor ADMM is near
-    /// the end, and above [`HANDOVER_ERROR`] Newton is not yet where it converges fast: the
-    /// phase may then take the steps that cost the iterations this loop has run, so that a
-    /// rescue that does not converge at most doubles what the loop cost:
-    /// unbounded, rescues on Bullet scenes' steps at 1e-4 (a wall hit by a ball, boxes
-    /// falling into a bin) took 80 to 280 steps, up to 2 s, where ADMM alone finished in
-    /// 0.1 to 0.6 s.
+    /// ADMM's estimate, from a rate near 1, says little there, and the phase has no limit.
+    /// Rescues come from stalls more than [`RESCUE_FAR`] times above the tolerance, where
+    /// ADMM's cost grows with the decades still to go and Newton's hardly does (Newton took
+    /// 111 to 175 steps from stalls at 4e-4 on Box_Stacks-i1000-444-8 at 1e-8, where a phase
+    /// cut short at ADMM's predicted iterations tripled the solve), or from below
+    /// [`HANDOVER_ERROR`], where Newton converges fast. Nearer the tolerance, above that
+    /// error, ADMM is within a decade of the end and a stall does not hand over at all: on
+    /// 15 steps of Bullet scenes in motion (a wall of 100 bricks hit by a ball, 512 boxes
+    /// falling into a bin) at 1e-4, such rescues, each allowed the steps that cost the
+    /// iterations run before it, mostly failed, and every solve cost fewer iterations and
+    /// Newton steps without them (at 50 iterations a step; a bin step's Newton step cost 57).
     pub(super) fn newton_budget(&self) -> Option<usize> {
-        // Below the handover error Newton is where it converges fast; a stall there (after
-        // a failed phase lowered `error_below`) keeps its unbounded rescue.
-        let far = self.last_error > RESCUE_FAR * self.tolerance;
-        let iterations = match self.polishing {
-            true => self.rule.budget * self.admm_iterations_left,
-            false if far || self.last_error <= HANDOVER_ERROR => return None,
-            false => self.iterations as f64,
-        };
-        let steps = iterations / self.rule.newton_step_iterations;
+        if !self.polishing {
+            return None;
+        }
+        let steps = self.rule.budget * self.admm_iterations_left / self.rule.newton_step_iterations;
         steps.is_finite().then(|| (steps as usize).max(1))
     }
 
@@ -282,18 +273,25 @@ mod tests {
         assert!((left / 5_590.0 - 1.0).abs() < 0.01, "{left}");
         // 0.95e-3 is far above 1e-8: no limit.
         assert_eq!(m.newton_budget(), None);
-        // Within 10 times the tolerance 1e-3, the 30 iterations run pay for one step of 50
-        // iterations' cost, and for 6 of 5, with or without a prediction (the error rose).
-        for (step, steps) in [(50.0, 1), (5.0, 6)] {
-            let mut near = HandoverMonitor::new(rule(step), 1e-3);
-            for (k, e) in [4e-3, 4.4e-3, 4.8e-3, 5.2e-3, 5.6e-3, 6e-3]
-                .iter()
-                .enumerate()
-            {
-                near.hand_over(*e, 5 * (k + 1));
+        // Within 10 times the tolerance 1e-3 (above the handover error) a stall does not
+        // hand over, whatever a step costs; within 10 times 1e-7, below the handover error,
+        // Newton is where it converges fast and the phase starts, unbounded (the rising
+        // error gives no prediction to bound it by).
+        for (tolerance, errors, handed) in [
+            (1e-3, [4e-3, 4.4e-3, 4.8e-3, 5.2e-3, 5.6e-3, 6e-3], false),
+            (1e-7, [4e-7, 4.4e-7, 4.8e-7, 5.2e-7, 5.6e-7, 6e-7], true),
+        ] {
+            for step in [50.0, 5.0] {
+                let mut near = HandoverMonitor::new(rule(step), tolerance);
+                let last = errors
+                    .iter()
+                    .enumerate()
+                    .map(|(k, e)| near.hand_over(*e, 5 * (k + 1)))
+                    .last();
+                assert_eq!(last, Some(handed), "{tolerance} {step}");
+                assert!(near.admm_iterations_left.is_infinite());
+                assert_eq!(near.newton_budget(), None);
             }
-            assert!(near.admm_iterations_left.is_infinite());
-            assert_eq!(near.newton_budget(), Some(steps));
         }
         // A stall from which ADMM still finishes within 1 500 iterations is left to ADMM:
         // not halved over 4 evaluations, but at that window's rate (0.9e-3 after 10

@@ -65,10 +65,7 @@ fn check_shape(s: &scenes::PileShape) -> Result<(), String> {
 
 /// The shape in a file name, empty for the default one.
 fn shape_label(s: &scenes::PileShape) -> String {
-    let d = scenes::PILE_SHAPE;
-    let same = (s.r_min, s.r_max, s.jitter, s.gap_fraction, s.mu, s.seed)
-        == (d.r_min, d.r_max, d.jitter, d.gap_fraction, d.mu, d.seed);
-    match same {
+    match *s == scenes::PILE_SHAPE {
         true => String::new(),
         false => format!(
             "-r{}-{}-j{}-g{}-mu{}-s{}",

@@ -399,7 +399,7 @@ pub fn pile(nx: usize, ny: usize, nz: usize) -> Scene {
 
 /// How [`irregular_pile_shaped`] draws its spheres and contacts: the scale benchmark varies
 /// these so that no figure holds on one generator's piles alone.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PileShape {
     /// Radii are uniform in `[r_min, r_max]`, `r_max <= 0.5` (the lattice's spacing is 1).
     pub r_min: f64,

@@ -49,6 +49,15 @@ pub const GAUSS_SEIDEL_HANDOVER_SWEEPS: f64 = 2000.0;
 /// 100 (the small Rover files: 3 to 4x less time, median of 2000 solves).
 pub const DENSE_MAX: usize = 48;
 
+/// Sparse LU factorizations (`linsys::Lu`) of at least this many unknowns are supernodal
+/// (dense kernels on groups of columns); below, faer chooses from the pattern. Its choice
+/// took the simplicial factorization for a 100-brick wall's reduced Newton matrix (600
+/// unknowns), whose steps then took 3 times as long (a dumped step at 1e-8, 4 000
+/// iterations: 14.2 s against 4.9 s), and Newton phases on Box_Stacks-i1000-444-8 and
+/// -557-13 twice as long; forced on the small islands of Capsules-i100-889 (local form),
+/// the supernodal factorization made the solve about 30% slower.
+pub const LU_SUPERNODAL_MIN: usize = 256;
+
 /// The error measure is evaluated every this many iterations (and whenever the cheap
 /// residual test passes): it costs a few matrix-vector products, an iteration about one solve.
 pub const ERROR_CHECK_INTERVAL: usize = 5;

@@ -171,7 +171,7 @@ mod tests {
         let (mut colptr, mut rowind, mut values) = (vec![0], Vec::new(), Vec::new());
         let mut dense = DMatrix::zeros(n, n);
         for j in 0..n {
-            // The band, and a far row per column: fill that faer's estimate cannot see.
+            // The band, and a far row per column, so that the factors fill in.
             let mut rows: Vec<usize> = (j.saturating_sub(3)..(j + 4).min(n)).collect();
             rows.push((j * 7 + 11) % n);
             rows.sort_unstable();

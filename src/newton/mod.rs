@@ -274,7 +274,8 @@ impl Progress {
     }
 
     /// Whether the iterate after `iterations` steps, of error `err` and relative residual
-    /// `rel`, is the new best; it is recorded as such then.
+    /// `rel`, is the new best; it is recorded as such then, and as progress when it cuts
+    /// the error of the last progress by [`NewtonTuning::progress`].
     fn improves(&mut self, err: f64, rel: f64, iterations: usize, tol: f64) -> bool {
         // Past the tolerance, the best is the unit-free one among the iterates that meet it.
         let better = if self.err <= tol {

@@ -112,9 +112,9 @@ pub const NEWTON_DENSE_STEP_ITERATIONS: f64 = 5.0;
 pub const NEWTON_BUDGET: f64 = 1.0;
 
 /// Newton steps allowed per Newton phase with ADMM to fall back on. Newton itself stops a
-/// phase that has not cut its best error by 10% in 60 steps; on the Box_Stacks files it needs 80 to 110
-/// steps from ADMM's handover, so caps of 50 or 100 failed phases that were about to
-/// converge (FCLib set at 1e-8: 8.2 s in all with 50, 6.7 s with 200, 5.2 s with 400).
+/// phase that has not cut its best error by 10% in 60 steps; on the Box_Stacks files it
+/// needs 80 to 110 steps from ADMM's handover, so caps of 50 or 100 failed phases that
+/// were about to converge (FCLib set at 1e-8: 8.2 s in all with 50, 6.7 s with 200, 5.2 s with 400).
 pub const NEWTON_MAX_STEPS: usize = 400;
 
 /// The solver works to `tolerance * (1 - ROUND_OFF_MARGIN)`: the measure of a solution

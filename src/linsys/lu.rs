@@ -156,18 +156,13 @@ impl Lu {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::newton::alart_curnier::tests::Rng;
     use nalgebra::{DMatrix, DVector};
 
     /// A sparse unsymmetric matrix of `n` unknowns whose diagonal is small against its
     /// band, so that partial pivoting exchanges rows: columns in CSC and the dense copy.
     fn banded(n: usize, seed: u64) -> (Vec<usize>, Vec<usize>, Vec<f64>, DMatrix<f64>) {
-        let mut state = seed;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = Rng(seed);
         let (mut colptr, mut rowind, mut values) = (vec![0], Vec::new(), Vec::new());
         let mut dense = DMatrix::zeros(n, n);
         for j in 0..n {
@@ -177,7 +172,7 @@ mod tests {
             rows.sort_unstable();
             rows.dedup();
             for i in rows {
-                let v = if i == j { 1e-3 * next() } else { next() };
+                let v = rng.uniform(-0.5, 0.5) * if i == j { 1e-3 } else { 1.0 };
                 rowind.push(i);
                 values.push(v);
                 dense[(i, j)] = v;

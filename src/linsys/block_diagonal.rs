@@ -321,9 +321,13 @@ impl BlockDiagonal {
     /// over the block's own unknowns.
     pub fn mul_block_inverse(&self, b: usize, x: &[f64], y: &mut [f64]) {
         let a = &self.factor[self.offset[b]..self.offset[b + 1]];
-        if x.len() == 6 {
-            block_product::<6>(a, x, y);
-            return;
+        // Fixed sizes for a rigid body's blocks: its six velocities together, or a mass
+        // (1 x 1, three times) and an inertia (3 x 3) when M's pattern separates them.
+        match x.len() {
+            1 => return y[0] = a[0] * x[0],
+            3 => return block_product::<3>(a, x, y),
+            6 => return block_product::<6>(a, x, y),
+            _ => {}
         }
         y.fill(0.0);
         for (column, &xj) in a.chunks_exact(x.len()).zip(x) {
@@ -361,9 +365,18 @@ impl BlockDiagonal {
         for b in blocks {
             let (idx, a) = (self.block(b), &of[self.offset[b]..self.offset[b + 1]]);
             let (first, k) = (idx[0], idx.len());
+            // A rigid body's six consecutive velocities, or its inertia's three and its
+            // mass's one: fixed-size products.
+            let at = first - shift;
+            if k == 1 {
+                y[at] = a[0] * x[first];
+                continue;
+            }
+            if k == 3 && idx[2] == first + 2 {
+                block_product::<3>(a, &x[first..first + 3], &mut y[at..at + 3]);
+                continue;
+            }
             if k == 6 && idx[5] == first + 5 {
-                // A rigid body's six consecutive velocities: a fixed-size product.
-                let at = first - shift;
                 block_product::<6>(a, &x[first..first + 6], &mut y[at..at + 6]);
                 continue;
             }
@@ -475,6 +488,63 @@ mod tests {
             blocks.factorize("M", &m),
             Err(Error::NotPositiveDefinite { field: "M" })
         ));
+    }
+
+    /// A rigid body's M as an engine writes it (masses 1 x 1, the inertia 3 x 3) beside a
+    /// body's whole 6 x 6 block: the inverse applied whole and block by block (the
+    /// fixed-size paths) against nalgebra's inverse of the dense matrix.
+    #[test]
+    fn rigid_body_blocks_apply_their_inverses() {
+        let n = 12;
+        let mut t = vec![(0, 0, 2.0), (1, 1, 2.0), (2, 2, 2.0)];
+        #[rustfmt::skip]
+        let inertia = [[0.9, 0.1, -0.05], [0.1, 0.7, 0.02], [-0.05, 0.02, 0.5]];
+        for (i, row) in inertia.iter().enumerate() {
+            for (j, &x) in row.iter().enumerate() {
+                t.push((3 + i, 3 + j, x));
+            }
+        }
+        for i in 0..6 {
+            for j in 0..6 {
+                let x = if i == j {
+                    3.0 + i as f64
+                } else {
+                    0.2 / (1 + i + j) as f64
+                };
+                t.push((6 + i, 6 + j, x));
+            }
+        }
+        let m = CscMatrix::from_triplets("M", n, n, &t).unwrap();
+        let mut blocks = BlockDiagonal::of(&m).expect("blocks");
+        assert_eq!(blocks.start, [0, 1, 2, 3, 6, 12]);
+        blocks.take_values(&m);
+        blocks.invert(0.0, &vec![0.0; blocks.entries()]).unwrap();
+        let dense = nalgebra::DMatrix::from_column_slice(n, n, &m.to_dense());
+        let inverse = dense.try_inverse().expect("M is invertible");
+        let x: Vec<f64> = (0..n).map(|i| 1.0 - 0.3 * i as f64).collect();
+        let want = &inverse * nalgebra::DVector::from_column_slice(&x);
+        let mut whole = vec![0.0; n];
+        blocks.mul_inverse(0..blocks.block_count(), &x, &mut whole);
+        for b in 0..blocks.block_count() {
+            let idx = blocks.block(b).to_vec();
+            let xb: Vec<f64> = idx.iter().map(|&i| x[i]).collect();
+            let mut yb = vec![0.0; idx.len()];
+            blocks.mul_block_inverse(b, &xb, &mut yb);
+            for (k, &i) in idx.iter().enumerate() {
+                assert!(
+                    (yb[k] - want[i]).abs() <= 1e-14,
+                    "block {b}: {} against {}",
+                    yb[k],
+                    want[i]
+                );
+                assert!(
+                    (whole[i] - want[i]).abs() <= 1e-14,
+                    "whole: {} against {}",
+                    whole[i],
+                    want[i]
+                );
+            }
+        }
     }
 
     /// `y = A x` of a dense column-major `n x n` matrix.

@@ -16,7 +16,8 @@ use crate::linsys::BlockDiagonal;
 use crate::measure::{global_error_with, MeasureWork};
 use crate::problem::GlobalProblem;
 use crate::tuning::{
-    GAUSS_SEIDEL_FIRST_MEASURE, GAUSS_SEIDEL_HANDOVER_SWEEPS, GAUSS_SEIDEL_PATIENCE,
+    GAUSS_SEIDEL_FIRST_MEASURE, GAUSS_SEIDEL_HANDOVER_SWEEPS, GAUSS_SEIDEL_MEASURE_SHARE,
+    GAUSS_SEIDEL_PATIENCE,
 };
 use crate::types::{Error, Status};
 use contact::ContactBlock;
@@ -129,8 +130,8 @@ impl GaussSeidel {
     /// `deadline` (judged by the last ones; never before [`GAUSS_SEIDEL_FIRST_MEASURE`]
     /// sweeps), or the sweeps hand over ([`hand_over`]). The
     /// error is measured before the first sweep, after [`GAUSS_SEIDEL_FIRST_MEASURE`]
-    /// sweeps and each doubling of them, and at the end; the best iterate
-    /// measured is kept ([`GaussSeidel::best`]).
+    /// sweeps and each doubling of them when worth it ([`worth_measuring`]), and at the
+    /// end; the best iterate measured is kept ([`GaussSeidel::best`]).
     pub(crate) fn run(
         &mut self,
         p: &GlobalProblem,
@@ -153,6 +154,7 @@ impl GaussSeidel {
         };
         let (mut sweep_time, mut measure_time) = (0.0, t0.elapsed().as_secs_f64());
         let (mut checkpoint, mut measured) = (GAUSS_SEIDEL_FIRST_MEASURE, true);
+        let mut last_measure = 0;
         outcome.status = measured_status(previous, limits);
         while outcome.status.is_none() {
             let left = limits.deadline.map_or(f64::INFINITY, seconds_until);
@@ -175,12 +177,17 @@ impl GaussSeidel {
                 self.sweep(p);
                 sweep_time = at.elapsed().as_secs_f64();
                 outcome.sweeps += 1;
-                measured = outcome.sweeps == checkpoint;
+                measured = outcome.sweeps == checkpoint && {
+                    checkpoint *= 2;
+                    let per_sweep = t0.elapsed().as_secs_f64() / outcome.sweeps as f64;
+                    let judged = (outcome.sweeps - last_measure) as f64 * sweep_time;
+                    worth_measuring(per_sweep, left, measure_time, judged)
+                };
                 if measured {
                     let at = Instant::now();
                     let error = self.measure(p, work);
                     measure_time = at.elapsed().as_secs_f64();
-                    checkpoint *= 2;
+                    last_measure = outcome.sweeps;
                     let progress = Progress {
                         sweeps: outcome.sweeps,
                         seconds: t0.elapsed().as_secs_f64(),
@@ -280,6 +287,22 @@ struct Progress {
     error: f64,
 }
 
+/// Whether a checkpoint's measure is worth its time, `per_sweep` being the run's time per
+/// sweep so far (its measures included) and `left` the time to the deadline: always while
+/// the sweeps could still hand over (the measure decides it), and otherwise, when it only
+/// keeps the best iterate and sees the tolerance met, once it costs at most
+/// [`GAUSS_SEIDEL_MEASURE_SHARE`] of the time `judged` the sweeps took since the last one.
+fn worth_measuring(per_sweep: f64, left: f64, measure_time: f64, judged: f64) -> bool {
+    can_hand_over(per_sweep, left) || measure_time <= GAUSS_SEIDEL_MEASURE_SHARE * judged
+}
+
+/// Whether `left` seconds could pay for the coupled solve after the sweeps (at least
+/// [`GAUSS_SEIDEL_HANDOVER_SWEEPS`] sweeps' worth). Time left only shrinks: once false, it
+/// stays false for the run.
+fn can_hand_over(per_sweep: f64, left: f64) -> bool {
+    left >= GAUSS_SEIDEL_HANDOVER_SWEEPS * per_sweep
+}
+
 /// Whether the sweeps should hand over to ADMM and Newton: when, at the rate of the
 /// last doubling of the sweeps, they would need more than [`GAUSS_SEIDEL_PATIENCE`]
 /// times the time spent so far to meet the tolerance, or more than the time left; and
@@ -289,7 +312,7 @@ struct Progress {
 fn hand_over(at: Progress, limits: SweepLimits) -> bool {
     let per_sweep = at.seconds / at.sweeps as f64;
     let left = limits.deadline.map_or(f64::INFINITY, seconds_until);
-    if left < GAUSS_SEIDEL_HANDOVER_SWEEPS * per_sweep {
+    if !can_hand_over(per_sweep, left) {
         return false;
     }
     let rate = at.error / at.halved_from;
@@ -326,4 +349,23 @@ pub(crate) struct SweepLimits<'a> {
     pub deadline: Option<Instant>,
     pub max_sweeps: usize,
     pub interrupt: Option<&'a AtomicBool>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With time for a handover every checkpoint is measured; without, a measure waits
+    /// until it costs at most a tenth of the sweeps it judges.
+    #[test]
+    fn checkpoints_are_measured_when_worth_it() {
+        let (sweep, measure) = (1e-4, 2.5e-4);
+        let plenty = 2.0 * GAUSS_SEIDEL_HANDOVER_SWEEPS * sweep;
+        assert!(worth_measuring(sweep, plenty, measure, 4.0 * sweep));
+        let tight = 40.0 * sweep;
+        for sweeps in [4.0, 8.0, 16.0] {
+            assert!(!worth_measuring(sweep, tight, measure, sweeps * sweep));
+        }
+        assert!(worth_measuring(sweep, tight, measure, 32.0 * sweep));
+    }
 }

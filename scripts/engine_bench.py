@@ -14,7 +14,8 @@ step: the share of steps whose answer measures below SI100's at the same step, a
 median and 95th percentile of the steps' errors.
 
 Per scene and solver: mean, p99 and longest step (ms of solveGroup, medians over the
-repeats), the worst error of the answers by the common measure (cadmm_problem_error on the
+repeats), cadmm's mean setup within the step (assembly, solver built or updated, warm start:
+what comes before the solve), the worst error of the answers by the common measure (cadmm_problem_error on the
 problem of each group: cadmm's own answers re-measured by the driver, Bullet's measured on
 the velocity-level problem it solves), unsolved steps, and the physics (deepest penetration,
 largest joint gap). Writes DIR/engine.jsonl (every run), DIR/engine.md (the table) and
@@ -118,18 +119,19 @@ def main():
                     print(f"{scene:12} {name:12} rep {rep}: mean {r.get('mean_solve_ms')} ms, "
                           f"max {r.get('max_solve_ms')} ms, error {r.get('max_error')}",
                           file=sys.stderr, flush=True)
-    lines = ["| scene | solver | mean step (ms) | p99 (ms) | longest (ms) | worst error | "
-             "median / p95 step error | steps below SI100 | unsolved steps | "
+    lines = ["| scene | solver | mean step (ms) | of which setup (ms) | p99 (ms) | longest (ms) | "
+             "worst error | median / p95 step error | steps below SI100 | unsolved steps | "
              "deepest penetration (m) | joint gap (m) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for (scene, name), runs in table.items():
         ok = [r for r in runs if "steps" in r]
         if not ok:
             why = "timed out" if runs[0].get("timeout") else runs[0].get("failed", "failed")
-            lines.append(f"| {scene} | {name} | {why} | | | | | | | | |")
+            lines.append(f"| {scene} | {name} | {why} | | | | | | | | | |")
             continue
         f = lambda k, fmt="{:.3g}": (fmt.format(median(ok, k)) if median(ok, k) is not None else "-")
-        lines.append(f"| {scene} | {name} | {f('mean_solve_ms')} | {f('p99_solve_ms')} | "
+        lines.append(f"| {scene} | {name} | {f('mean_solve_ms')} | {f('mean_setup_ms')} | "
+                     f"{f('p99_solve_ms')} | "
                      f"{f('max_solve_ms')} | {f('max_error', '{:.1e}')} | "
                      f"{f('median_error', '{:.1e}')} / {f('p95_error', '{:.1e}')} | "
                      f"{f('steps_below_peer', '{:.0%}')} | "

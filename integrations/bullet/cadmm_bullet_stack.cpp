@@ -253,7 +253,7 @@ int main(int argc, char **argv) {
 
   const int steps = int(std::lround(args.seconds / h));
   std::vector<double> stepMs;
-  double sumIt = 0, maxIt = 0, sumMs = 0, maxMs = 0, maxPen = 0, maxDrift = 0, maxErr = 0,
+  double sumIt = 0, maxIt = 0, sumMs = 0, sumSetupMs = 0, maxMs = 0, maxPen = 0, maxDrift = 0, maxErr = 0,
          maxGap = 0, maxExcess = 0, tipDrift = NAN, maxTipDrift = NAN;
   int unsolved = 0, newSolvers = 0;
   size_t sumContacts = 0;
@@ -273,7 +273,8 @@ int main(int argc, char **argv) {
     const double ms = 1e3 * st.seconds;
     sumIt += double(st.iterations), maxIt = std::max(maxIt, double(st.iterations));
     stepMs.push_back(ms);
-    sumMs += ms, maxMs = std::max(maxMs, ms), maxPen = std::max(maxPen, pen.depth);
+    sumMs += ms, sumSetupMs += 1e3 * st.setupSeconds;
+    maxMs = std::max(maxMs, ms), maxPen = std::max(maxPen, pen.depth);
     maxExcess = std::max(maxExcess, pen.excess);
     if (std::isnan(st.error)) errUnknown = true;
     else maxErr = std::max(maxErr, st.error);
@@ -338,6 +339,7 @@ int main(int argc, char **argv) {
       {"mean_solve_ms", number(sumMs / steps)},
       {"p99_solve_ms", number(percentile(stepMs, 0.99))},
       {"max_solve_ms", number(maxMs)},
+      {"mean_setup_ms", cadmm ? number(sumSetupMs / steps) : "null"},
       {"max_penetration", number(maxPen)},
       {"max_penetration_excess", number(maxExcess)},
       {"max_drift", number(maxDrift)},

@@ -107,6 +107,7 @@ btScalar CadmmConstraintSolver::solveGroup(btCollisionObject **bodies, int numBo
           "cadmm_settings_set_time_limit");
     check(cadmm_solver_update_settings(solver_, settings_), "cadmm_solver_update_settings", solver_);
   }
+  const auto setupEnd = std::chrono::steady_clock::now();
   cadmm_status status = 0;
   check(cadmm_solver_solve(solver_, &status), "cadmm_solver_solve", solver_);
 
@@ -126,6 +127,7 @@ btScalar CadmmConstraintSolver::solveGroup(btCollisionObject **bodies, int numBo
   stats_.unsolved += status != CADMM_STATUS_SOLVED;
   stats_.contacts += current_.contacts();
   stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  stats_.setupSeconds += std::chrono::duration<double>(setupEnd - start).count();
   if (options_.onSolved) options_.onSolved({current_, r.data(), v.data(), lambda.data(), status});
   return 0;
 }

@@ -89,6 +89,7 @@ struct SolveStats {
   uint64_t iterations = 0;  // ADMM iterations and Newton steps
   double error = 0;         // worst final error measure
   double seconds = 0;       // wall time in solveGroup: assembly, factorization, solve, write-back
+  double setupSeconds = 0;  // the part before the solve: assembly, solver built or updated, warm start
   int unsolved = 0;         // solves that ended above the tolerance (last iterate written back)
   int newSolvers = 0;       // solvers built because the pattern changed
   size_t contacts = 0;

@@ -13,7 +13,7 @@
 pub const GAUSS_SEIDEL_INNER: usize = 1;
 
 /// Gauss-Seidel sweeps are first measured after this many (then after each doubling): a
-/// measure costs about a sweep, and within an engine's budget of 20 to 60 sweeps measures
+/// measure costs 2 to 3 sweeps, and within an engine's budget of 20 to 60 sweeps measures
 /// after sweeps 1 and 2 took a tenth of it. A budgeted solve also runs at least this many
 /// sweeps, past its time limit if need be: fewer leave errors of 0.3 to 1 on the steps
 /// where a wall or a pile first lands (their new contacts start from no impulse), worse
@@ -24,9 +24,10 @@ pub const GAUSS_SEIDEL_FIRST_MEASURE: usize = 4;
 /// Once no handover can follow (too little time left), a Gauss-Seidel checkpoint is
 /// measured only when the measure costs at most this share of the sweeps since the last
 /// one. Such a measure only keeps the best iterate and sees the tolerance met, and it costs
-/// 2 to 3 sweeps (it recomputes the velocities and measures every contact): at 4, 8 and
-/// 16 sweeps, within an engine's budget of 20 to 60 sweeps, measures took a quarter to a
-/// third of the solve.
+/// 2 to 3 sweeps (it recomputes the velocities and measures every contact: 75 against 38
+/// us on a 900-contact pyramid step, 220 against 85 us on a 2 300-contact bin step). The
+/// measures at 4, 8 and 16 sweeps took 6 to 9 sweeps' time of an engine's budget of 20 to
+/// 60 (docs/perf/engine-setup-2026-11-27).
 pub const GAUSS_SEIDEL_MEASURE_SHARE: f64 = 0.1;
 
 /// Gauss-Seidel sweeps go on while, at the rate of their last doubling, they would meet

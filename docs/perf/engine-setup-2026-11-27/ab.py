@@ -1,0 +1,59 @@
+#!/usr/bin/env python3
+"""Two builds of libcadmm side by side in the Bullet driver: for each scene and seed, Bullet's
+100 iterations (SI100) run first; then cadmm with each library (through LD_LIBRARY_PATH, the
+order alternating with the seed) at 1e-4, under SI100's mean step as the budget unless other
+driver arguments are given, each step's error compared with SI100's at the same step.
+
+    python3 ab.py --driver build-bullet/cadmm_bullet_stack --before DIR --after DIR \\
+        [--scenes wall,bin,chain,big-pyramid] [--seeds 1,2,3] [--args "--tolerance 1e-8"] \\
+        [--out ab.jsonl]
+
+DIR holds a libcadmm.so.0. Prints one line per run and appends every run to --out (the
+per-step traces go to a temporary directory).
+"""
+import argparse
+import json
+import os
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "..", "scripts"))
+import engine_bench as eb  # noqa: E402
+
+ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+ap.add_argument("--driver", required=True)
+ap.add_argument("--before", required=True)
+ap.add_argument("--after", required=True)
+ap.add_argument("--scenes", default="wall,bin,chain,big-pyramid")
+ap.add_argument("--seeds", default="1,2,3")
+ap.add_argument("--args", default="", help="driver arguments instead of the budget")
+ap.add_argument("--seconds", type=float, default=2.0)
+ap.add_argument("--out", default="ab.jsonl")
+a = ap.parse_args()
+work = tempfile.mkdtemp(prefix="ab-traces-")  # the drivers' per-step CSVs
+with open(a.out, "a") as log:
+    for scene in a.scenes.split(","):
+        for seed in map(int, a.seeds.split(",")):
+            peer = os.path.join(work, f"{scene}-{seed}-si100.csv")
+            si100 = eb.run(a.driver, scene, ["--solver", "bullet", "--bullet-iterations", "100",
+                                             "--seed", str(seed)], a.seconds, 900, peer)
+            budget = si100["mean_solve_ms"]
+            limit = a.args.split() or ["--time-limit", f"{budget / 1e3:.6g}"]
+            for name in ("before", "after") if seed % 2 else ("after", "before"):
+                trace = os.path.join(work, f"{scene}-{seed}-{name}.csv")
+                env_lib = os.environ.get("LD_LIBRARY_PATH")
+                os.environ["LD_LIBRARY_PATH"] = getattr(a, name)
+                r = eb.run(a.driver, scene, ["--solver", "cadmm", "--tolerance", "1e-4",
+                                             "--seed", str(seed)] + limit, a.seconds, 900, trace)
+                if env_lib is None:
+                    del os.environ["LD_LIBRARY_PATH"]
+                else:
+                    os.environ["LD_LIBRARY_PATH"] = env_lib
+                r.update(eb.compare_steps(trace, peer), label=name, scene=scene, seed=seed,
+                         budget_ms=budget, args=limit)
+                log.write(json.dumps(r) + "\n")
+                log.flush()
+                print(f"{scene} {seed} {name}: budget {budget:.3f} ms, mean {r['mean_solve_ms']:.3f},"
+                      f" setup {r['mean_setup_ms']:.3f}, longest {r['max_solve_ms']:.3f},"
+                      f" below SI100 {r['steps_below_peer']:.0%}, median error"
+                      f" {r['median_error']:.2e}, p95 {r['p95_error']:.2e}", flush=True)

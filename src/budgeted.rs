@@ -135,6 +135,17 @@ impl BudgetedStart {
             .run(&self.problem, r0, limits, &mut self.measure)
     }
 
+    /// Whether the problem's joint rows outnumber its contact rows.
+    pub(crate) fn jointed(&self) -> bool {
+        self.problem.n_joints() > 3 * self.problem.n_contacts()
+    }
+
+    /// Passes the warm start to the coupled solve without sweeping (it becomes
+    /// [`BudgetedStart::used_warm`]).
+    pub(crate) fn pass(&mut self) {
+        self.used_warm = self.warm.take();
+    }
+
     /// The warm start the last run began from (impulses, and velocities when given).
     pub(crate) fn used_warm(&self) -> Option<(&[f64], Option<&[f64]>)> {
         let (r, v) = self.used_warm.as_ref()?;

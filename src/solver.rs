@@ -11,7 +11,7 @@ use crate::problem::{NewValues, Problem};
 use crate::scene::islands::{partition_global, partition_local};
 use crate::scene::Scene;
 use crate::settings::{Resolved, Settings};
-use crate::tuning::ROUND_OFF_MARGIN;
+use crate::tuning::{BUDGET_JOINTED_AFTER, ROUND_OFF_MARGIN};
 use crate::types::{Error, Solution, Stats, Status, TracePoint};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -29,6 +29,8 @@ pub struct Solver {
     budgeted: Option<Box<BudgetedStart>>,
     /// The flag of [`Solver::set_interrupt`], handed to the islands when they are built.
     interrupt: Option<Arc<AtomicBool>>,
+    /// Solves done: a budgeted solver kept across steps may go straight to its islands.
+    solves: usize,
     stats: Stats,
     island_stats: Vec<Stats>,
     /// The solution the last solve handed back (zeros before the first solve), kept so
@@ -154,6 +156,7 @@ impl Solver {
             layout,
             budgeted,
             interrupt: None,
+            solves: 0,
             stats: Stats::default(),
             island_stats: Vec::new(),
             solution,
@@ -270,6 +273,7 @@ impl Solver {
     /// when the assembled solution meets the tolerance by the whole problem's measure.
     pub fn solve(&mut self) -> Result<Status, Error> {
         let t0 = Instant::now();
+        self.solves += 1;
         let Some(budgeted) = &mut self.budgeted else {
             let layout = self.layout.as_mut().expect("built unless budgeted");
             let (status, error) = layout.solve(&self.inner, t0, &mut self.solution)?;
@@ -278,6 +282,13 @@ impl Solver {
         };
         let limit = std::time::Duration::try_from_secs_f64(self.inner.time_limit).ok();
         let deadline = limit.and_then(|l| t0.checked_add(l));
+        // Sweeps carry a correction along a chain of joints one link a sweep; the islands'
+        // factorized system solves the joint rows exactly, once a kept solver has paid for
+        // building it (docs/algorithms.md §17).
+        if self.solves > BUDGET_JOINTED_AFTER && budgeted.jointed() {
+            budgeted.pass();
+            return self.hand_over(0, f64::INFINITY, t0);
+        }
         let interrupt = self.interrupt.as_deref();
         let swept = budgeted.run(
             self.inner.tolerance,

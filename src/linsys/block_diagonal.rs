@@ -320,21 +320,7 @@ impl BlockDiagonal {
     /// `y = A_b^-1 x` with block `b`'s inverse from [`BlockDiagonal::invert`], `x` and `y`
     /// over the block's own unknowns.
     pub fn mul_block_inverse(&self, b: usize, x: &[f64], y: &mut [f64]) {
-        let a = &self.factor[self.offset[b]..self.offset[b + 1]];
-        // Fixed sizes for a rigid body's blocks: its six velocities together, or a mass
-        // (1 x 1, three times) and an inertia (3 x 3) when M's pattern separates them.
-        match x.len() {
-            1 => return y[0] = a[0] * x[0],
-            3 => return block_product::<3>(a, x, y),
-            6 => return block_product::<6>(a, x, y),
-            _ => {}
-        }
-        y.fill(0.0);
-        for (column, &xj) in a.chunks_exact(x.len()).zip(x) {
-            for (yi, aij) in y.iter_mut().zip(column) {
-                *yi += aij * xj;
-            }
-        }
+        dense_product(&self.factor[self.offset[b]..self.offset[b + 1]], x, y);
     }
 
     /// `y = A x` with the matrices taken (`x` and `y` over all unknowns).
@@ -365,19 +351,10 @@ impl BlockDiagonal {
         for b in blocks {
             let (idx, a) = (self.block(b), &of[self.offset[b]..self.offset[b + 1]]);
             let (first, k) = (idx[0], idx.len());
-            // A rigid body's six consecutive velocities, or its inertia's three and its
-            // mass's one: fixed-size products.
-            let at = first - shift;
-            if k == 1 {
-                y[at] = a[0] * x[first];
-                continue;
-            }
-            if k == 3 && idx[2] == first + 2 {
-                block_product::<3>(a, &x[first..first + 3], &mut y[at..at + 3]);
-                continue;
-            }
-            if k == 6 && idx[5] == first + 5 {
-                block_product::<6>(a, &x[first..first + 6], &mut y[at..at + 6]);
+            if idx[k - 1] == first + k - 1 {
+                // Consecutive unknowns (a body's): a product over slices.
+                let at = first - shift;
+                dense_product(a, &x[first..first + k], &mut y[at..at + k]);
                 continue;
             }
             for &i in idx {
@@ -403,6 +380,25 @@ impl Default for BlockDiagonal {
 /// The stored entries of `m`, as (row, column).
 fn entries(m: &CscMatrix) -> impl Iterator<Item = (usize, usize)> + '_ {
     (0..m.ncols()).flat_map(move |j| m.col(j).map(move |(i, _)| (i, j)))
+}
+
+/// `y = A x` for a dense column-major square block `A`, at fixed sizes for a rigid body's
+/// blocks: its six velocities together, or a mass (1 x 1, three times) and an inertia
+/// (3 x 3) when M's pattern separates them.
+fn dense_product(a: &[f64], x: &[f64], y: &mut [f64]) {
+    match x.len() {
+        1 => y[0] = a[0] * x[0],
+        3 => block_product::<3>(a, x, y),
+        6 => block_product::<6>(a, x, y),
+        k => {
+            y.fill(0.0);
+            for (column, &xj) in a.chunks_exact(k).zip(x) {
+                for (yi, aij) in y.iter_mut().zip(column) {
+                    *yi += aij * xj;
+                }
+            }
+        }
+    }
 }
 
 /// `z = A r` for a dense column-major `K x K` block `A`.

@@ -177,12 +177,13 @@ impl GaussSeidel {
                 self.sweep(p);
                 sweep_time = at.elapsed().as_secs_f64();
                 outcome.sweeps += 1;
-                measured = outcome.sweeps == checkpoint && {
+                measured = false;
+                if outcome.sweeps == checkpoint {
                     checkpoint *= 2;
                     let per_sweep = t0.elapsed().as_secs_f64() / outcome.sweeps as f64;
                     let judged = (outcome.sweeps - last_measure) as f64 * sweep_time;
-                    worth_measuring(per_sweep, left, measure_time, judged)
-                };
+                    measured = worth_measuring(per_sweep, left, measure_time, judged);
+                }
                 if measured {
                     let at = Instant::now();
                     let error = self.measure(p, work);

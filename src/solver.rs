@@ -284,10 +284,13 @@ impl Solver {
         let deadline = limit.and_then(|l| t0.checked_add(l));
         // Sweeps carry a correction along a chain of joints one link a sweep; the islands'
         // factorized system solves the joint rows exactly, once a kept solver has paid for
-        // building it (docs/algorithms.md §17).
+        // building it (docs/algorithms.md §17). The pattern, and so the choice, stays with
+        // the solver: its sweeps go, and updates no longer refresh them.
         if self.solves > BUDGET_JOINTED_AFTER && budgeted.jointed() {
             budgeted.pass();
-            return self.hand_over(0, f64::INFINITY, t0);
+            let status = self.hand_over(0, f64::INFINITY, t0)?;
+            self.keep_budgeted_if(false)?;
+            return Ok(status);
         }
         let interrupt = self.interrupt.as_deref();
         let swept = budgeted.run(

@@ -214,7 +214,7 @@ impl GaussSeidel {
             let hv = self.contacts.apply(c, &self.v);
             let w = get3(&p.w, c);
             let u = [hv[0] + w[0], hv[1] + w[1], hv[2] + w[2]];
-            let block = &self.blocks[c];
+            let block = &mut self.blocks[c];
             let r_old = get3(&self.r, c);
             let w_r = block.mul(r_old);
             let q = [u[0] - w_r[0], u[1] - w_r[1], u[2] - w_r[2]];

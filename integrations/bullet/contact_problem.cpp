@@ -171,9 +171,16 @@ double ContactProblem::addRow(Csc &J, const btCollisionObject *A, const btVector
   double fixedPart = 0;
   const btCollisionObject *side[2] = {A, B};
   const btVector3 *point[2] = {&pA, &pB};
-  for (int s = 0; s < 2; ++s) {
-    const double sign = s == 0 ? 1 : -1;
-    const int i0 = index(side[s]);
+  const double signs[2] = {1, -1};
+  const int first[2] = {index(A), index(B)};
+  // The body with the lower velocity index first, so that each column's row indices come
+  // sorted and cadmm takes the arrays as they are (no sort, no permutation kept for the
+  // updates' values).
+  const bool swap = first[1] >= 0 && first[1] < first[0];
+  for (int t = 0; t < 2; ++t) {
+    const int s = swap ? 1 - t : t;
+    const double sign = signs[s];
+    const int i0 = first[s];
     if (i0 < 0) {
       fixedPart += sign * d.dot(pointVelocity(side[s], *point[s]));
       continue;

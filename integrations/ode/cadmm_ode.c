@@ -997,7 +997,10 @@ static void g_column(cadmm_ode *ctx, size_t k, long a, long b) {
     double *values = ctx->g_values.data;
     long slots[2] = {a, b};
     const double *g[2] = {r->ga, r->gb};
-    for (int side = 0; side < 2; side++) {
+    /* The lower slot first: sorted row indices, which cadmm takes as they are. */
+    const int swap = b >= 0 && b < a;
+    for (int t = 0; t < 2; t++) {
+        const int side = swap ? 1 - t : t;
         if (slots[side] < 0) continue;
         for (int i = 0; i < 6; i++) {
             rowind[nnz] = 6 * slots[side] + i;
@@ -1050,7 +1053,10 @@ static void assemble_h(cadmm_ode *ctx, const dBodyID *bodies) {
         const double *dirs[3] = {k->n, k->t1, k->t2};
         for (int d = 0; d < 3; d++) {
             long slots[2] = {k->slot1, k->slot2};
-            for (int side = 0; side < 2; side++) {
+            /* The lower slot first: sorted row indices, which cadmm takes as they are. */
+            const int swap = k->slot2 >= 0 && k->slot2 < k->slot1;
+            for (int t = 0; t < 2; t++) {
+                const int side = swap ? 1 - t : t;
                 if (slots[side] < 0) continue;
                 const dReal *x = dBodyGetPosition(bodies[slot_body[slots[side]]]);
                 double arm[3] = {k->pos[0] - x[0], k->pos[1] - x[1], k->pos[2] - x[2]}, mom[3];

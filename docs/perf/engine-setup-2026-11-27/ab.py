@@ -8,8 +8,10 @@ driver arguments are given, each step's error compared with SI100's at the same 
         [--scenes wall,bin,chain,big-pyramid] [--seeds 1,2,3] [--args "--tolerance 1e-8"] \\
         [--out ab.jsonl]
 
-DIR holds a libcadmm.so.0. Prints one line per run and appends every run to --out (the
-per-step traces go to a temporary directory).
+DIR holds a libcadmm.so.0. --before-driver and --after-driver run that side with another
+build of the driver (a change to the drop-in itself); both default to --driver. Prints one
+line per run and appends every run to --out (the per-step traces go to a temporary
+directory).
 """
 import argparse
 import json
@@ -24,6 +26,8 @@ ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("--driver", required=True)
 ap.add_argument("--before", required=True)
 ap.add_argument("--after", required=True)
+ap.add_argument("--before-driver", help="the driver for the before side (default --driver)")
+ap.add_argument("--after-driver", help="the driver for the after side (default --driver)")
 ap.add_argument("--scenes", default="wall,bin,chain,big-pyramid")
 ap.add_argument("--seeds", default="1,2,3")
 ap.add_argument("--args", default="", help="driver arguments instead of the budget")
@@ -43,7 +47,8 @@ with open(a.out, "a") as log:
                 trace = os.path.join(work, f"{scene}-{seed}-{name}.csv")
                 env_lib = os.environ.get("LD_LIBRARY_PATH")
                 os.environ["LD_LIBRARY_PATH"] = getattr(a, name)
-                r = eb.run(a.driver, scene, ["--solver", "cadmm", "--tolerance", "1e-4",
+                driver = getattr(a, f"{name}_driver") or a.driver
+                r = eb.run(driver, scene, ["--solver", "cadmm", "--tolerance", "1e-4",
                                              "--seed", str(seed)] + limit, a.seconds, 900, trace)
                 if env_lib is None:
                     del os.environ["LD_LIBRARY_PATH"]

@@ -1012,6 +1012,72 @@ static void test_solver_calls(void)
 /* ---- FCLib I/O ------------------------------------------------------------------------------ */
 
 /* Returns 1 when the part that needs the data directory could not run (it is missing). */
+/* cadmm_solver_rebuild: a problem of other sizes and pattern replaces the solver's, with and
+ * without a time limit (with one, the sweeps are built in the memory of those they replace);
+ * a refused problem changes nothing. M = 2 I, f = F3: a contact under the identity sticks
+ * with r = -F3 and v = 0; two contacts on the same rows stick with r_a + r_b = -F3. */
+static void test_solver_rebuild(void)
+{
+    static const double f2[3] = {-4.0, 0.4, 0.0}, mind[3] = {2.0, -1.0, 2.0};
+    static const double w6[6] = {0}, mu2[2] = {0.5, 0.5};
+    static const int64_t h6c[7] = {0, 1, 2, 3, 4, 5, 6}, h6r[6] = {0, 1, 2, 0, 1, 2};
+    static const double h6v[6] = {1, 1, 1, 1, 1, 1};
+    cadmm_csc M = csc(3, 3, DIAG_COLPTR, DIAG_ROWIND, TWO);
+    cadmm_csc H = csc(3, 3, DIAG_COLPTR, DIAG_ROWIND, ONE);
+    cadmm_csc H6 = csc(3, 6, h6c, h6r, h6v);
+    cadmm_csc Mind = csc(3, 3, DIAG_COLPTR, DIAG_ROWIND, mind);
+    cadmm_problem *one = NULL, *two = NULL, *doubled = NULL, *indefinite = NULL;
+    REQUIRE_OK(cadmm_problem_new_global(3, 1, &M, &H, F3, W0, MU, &one));
+    REQUIRE_OK(cadmm_problem_new_global(3, 2, &M, &H6, F3, w6, mu2, &two));
+    REQUIRE_OK(cadmm_problem_new_global(3, 1, &M, &H, f2, W0, MU, &doubled));
+    REQUIRE_OK(cadmm_problem_new_global(3, 1, &Mind, &H, F3, W0, MU, &indefinite));
+    for (int budgeted = 0; budgeted < 2; budgeted++) {
+        cadmm_settings *s = valid_settings();
+        cadmm_solver *sv = NULL;
+        cadmm_status st = -1;
+        double r[6], v[3];
+        if (budgeted) REQUIRE_OK(cadmm_settings_set_time_limit(s, 10.0));
+        REQUIRE_OK(cadmm_solver_new(one, s, &sv));
+        EXPECT_RC(cadmm_solver_rebuild(NULL, two), CADMM_ERR_NULL_POINTER);
+        EXPECT_RC(cadmm_solver_rebuild(sv, NULL), CADMM_ERR_NULL_POINTER);
+        EXPECT_RC(cadmm_solver_rebuild(sv, indefinite), CADMM_ERR_NOT_POSITIVE_DEFINITE);
+        check_message("rebuild with M indefinite", cadmm_solver_last_error(sv), 0, "M",
+                      "not positive definite");
+        /* refused: still the first problem */
+        EXPECT_RC(cadmm_solver_solve(sv, &st), CADMM_OK);
+        CHECK(st == CADMM_STATUS_SOLVED);
+        EXPECT_RC(cadmm_solver_get_solution(sv, r, NULL, NULL), CADMM_OK);
+        CHECK_MSG(fabs(r[0] - 2.0) < 1e-6 && fabs(r[1] + 0.2) < 1e-6 && fabs(r[2]) < 1e-6,
+                  "budgeted %d: after a refused rebuild r = (%g, %g, %g), expected (2, -0.2, 0)",
+                  budgeted, r[0], r[1], r[2]);
+        /* two contacts: six impulses */
+        EXPECT_RC(cadmm_solver_rebuild(sv, two), CADMM_OK);
+        EXPECT_RC(cadmm_solver_solve(sv, &st), CADMM_OK);
+        CHECK(st == CADMM_STATUS_SOLVED);
+        EXPECT_RC(cadmm_solver_get_solution(sv, r, NULL, v), CADMM_OK);
+        CHECK_MSG(fabs(r[0] + r[3] - 2.0) < 1e-6 && fabs(r[1] + r[4] + 0.2) < 1e-6 &&
+                      fabs(r[2] + r[5]) < 1e-6 && fabs(v[0]) + fabs(v[1]) + fabs(v[2]) < 1e-6,
+                  "budgeted %d: two contacts r = (%g, %g, %g) + (%g, %g, %g), v = (%g, %g, %g)",
+                  budgeted, r[0], r[1], r[2], r[3], r[4], r[5], v[0], v[1], v[2]);
+        /* back to one contact, f doubled: r doubles */
+        EXPECT_RC(cadmm_solver_rebuild(sv, doubled), CADMM_OK);
+        EXPECT_RC(cadmm_solver_solve(sv, &st), CADMM_OK);
+        CHECK(st == CADMM_STATUS_SOLVED);
+        EXPECT_RC(cadmm_solver_get_solution(sv, r, NULL, NULL), CADMM_OK);
+        CHECK_MSG(fabs(r[0] - 4.0) < 1e-6 && fabs(r[1] + 0.4) < 1e-6 && fabs(r[2]) < 1e-6,
+                  "budgeted %d: after rebuilds r = (%g, %g, %g), expected (4, -0.4, 0)",
+                  budgeted, r[0], r[1], r[2]);
+        /* and the same pattern updates as before */
+        EXPECT_RC(cadmm_solver_update(sv, one), CADMM_OK);
+        cadmm_solver_free(sv);
+        cadmm_settings_free(s);
+    }
+    cadmm_problem_free(one);
+    cadmm_problem_free(two);
+    cadmm_problem_free(doubled);
+    cadmm_problem_free(indefinite);
+}
+
 static int test_fclib(const char *data_dir)
 {
     cadmm_problem *p = SENTINEL_PROBLEM;
@@ -1134,6 +1200,7 @@ int main(int argc, char **argv)
     test_settings();
     test_solver_new_failures();
     test_solver_calls();
+    test_solver_rebuild();
     skipped = test_fclib(data_dir);
     cadmm_problem_free(primer_problem);
     rc = tu_finish("test_api_errors");

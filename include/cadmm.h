@@ -988,6 +988,21 @@ cadmm_result cadmm_solver_update_local_values(struct cadmm_solver *sv,
 cadmm_result cadmm_solver_update(struct cadmm_solver *sv, const struct cadmm_problem *p);
 
 /**
+ * Replaces the solver's problem by `p`, of any form, sizes and sparsity patterns (the next
+ * time step of a scene whose contacts changed), keeping the solver's settings: the solver
+ * becomes what `cadmm_solver_new` builds from `p` and those settings, without a new
+ * handle. A solver with a time limit (started by Gauss-Seidel sweeps, `auto`) builds the
+ * new problem's sweeps in the memory of those it replaced the time before, where a new
+ * solver would allocate it afresh. `p` is copied. The next solve starts cold unless
+ * `cadmm_solver_warm_start` is called after this.
+ *
+ * Errors: as `cadmm_solver_new` (`CADMM_ERR_NULL_POINTER`,
+ * `CADMM_ERR_NOT_POSITIVE_DEFINITE`, `CADMM_ERR_SINGULAR`). A refused problem changes
+ * nothing: the solver keeps its problem, settings and last solution.
+ */
+cadmm_result cadmm_solver_rebuild(struct cadmm_solver *sv, const struct cadmm_problem *p);
+
+/**
  * Changes the settings of the next solves: the tolerance, the iteration and time limits,
  * the trace and the threads of `s` are taken (`s` is copied). Every other setting of `s`
  * must equal the solver's: changing the variant, the initial rho, the s update, Anderson,

@@ -24,6 +24,8 @@ pub(crate) struct BudgetedStart {
     measure: MeasureWork,
     /// The values an update replaces, until it has succeeded.
     kept: KeptValues,
+    /// The problem and sweeps before the last rebuild, whose memory the next one reuses.
+    spare: Option<(GlobalProblem, GaussSeidel)>,
 }
 
 impl BudgetedStart {
@@ -31,11 +33,15 @@ impl BudgetedStart {
     /// problem is global, with M made of small symmetric blocks; `None` otherwise (a named
     /// variant runs as named).
     pub(crate) fn sweeps_for(problem: &Problem, settings: &Settings) -> Option<GaussSeidel> {
-        let auto = settings.variant == VariantChoice::Auto;
         match problem {
-            Problem::Global(g) if auto && settings.time_limit.is_finite() => GaussSeidel::new(g),
+            Problem::Global(g) if Self::asked_by(settings) => GaussSeidel::new(g),
             _ => None,
         }
+    }
+
+    /// Whether `settings` ask for the sweeps: `auto` with a time limit.
+    pub(crate) fn asked_by(settings: &Settings) -> bool {
+        settings.variant == VariantChoice::Auto && settings.time_limit.is_finite()
     }
 
     /// The first phase of `problem` with its `sweeps` ([`BudgetedStart::sweeps_for`]).
@@ -53,7 +59,37 @@ impl BudgetedStart {
             warm: None,
             used_warm: None,
             kept: KeptValues::default(),
+            spare: None,
         })
+    }
+
+    /// Becomes the start of `next`, a problem of any sizes and patterns, in the memory of
+    /// the problem and sweeps it replaced last time (an engine's contacts change from step
+    /// to step; building them anew cost page faults and copies, a fifth of setting up a
+    /// step). Ok(false) when the sweeps do not suit `next`, and an error when its M is not
+    /// positive definite; either way nothing changes.
+    pub(crate) fn rebuild(&mut self, next: &GlobalProblem) -> Result<bool, Error> {
+        let (mut problem, mut sweeps) = match self.spare.take() {
+            Some((mut problem, mut sweeps)) => {
+                problem.clone_from(next);
+                if !sweeps.refit(&problem) {
+                    return Ok(false);
+                }
+                (problem, sweeps)
+            }
+            None => match GaussSeidel::new(next) {
+                Some(sweeps) => (next.clone(), sweeps),
+                None => return Ok(false),
+            },
+        };
+        sweeps.take_values(&problem)?;
+        std::mem::swap(&mut self.problem, &mut problem);
+        std::mem::swap(&mut self.sweeps, &mut sweeps);
+        self.spare = Some((problem, sweeps));
+        self.measure.fit_global(&self.problem);
+        self.warm = None;
+        self.used_warm = None;
+        Ok(true)
     }
 
     /// The problem as it stands (for building the islands' solvers from it).

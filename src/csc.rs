@@ -5,7 +5,7 @@ use crate::types::Error;
 /// A sparse matrix in compressed-column form, 0-based, validated on construction.
 ///
 /// Row indices inside a column need not be sorted; they are sorted on construction.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct CscMatrix {
     nrows: usize,
     ncols: usize,
@@ -15,6 +15,36 @@ pub struct CscMatrix {
     /// Where each stored entry came from in the arrays the matrix was built from, when
     /// construction had to sort rows (None: stored in input order).
     input_order: Option<Vec<usize>>,
+}
+
+impl Clone for CscMatrix {
+    fn clone(&self) -> Self {
+        Self {
+            nrows: self.nrows,
+            ncols: self.ncols,
+            colptr: self.colptr.clone(),
+            rowind: self.rowind.clone(),
+            values: self.values.clone(),
+            input_order: self.input_order.clone(),
+        }
+    }
+
+    /// Reuses the arrays' memory (a solver rebuilt for each step's problem).
+    fn clone_from(&mut self, source: &Self) {
+        let Self {
+            nrows,
+            ncols,
+            colptr,
+            rowind,
+            values,
+            input_order,
+        } = self;
+        (*nrows, *ncols) = (source.nrows, source.ncols);
+        colptr.clone_from(&source.colptr);
+        rowind.clone_from(&source.rowind);
+        values.clone_from(&source.values);
+        input_order.clone_from(&source.input_order);
+    }
 }
 
 /// Marks an entry without a mirror in [`CscMatrix::mirror_map`].

@@ -237,7 +237,7 @@ impl MeasureWork {
     }
 
     /// Resizes for `p` (no allocation when the sizes already fit).
-    fn fit_global(&mut self, p: &GlobalProblem) {
+    pub(crate) fn fit_global(&mut self, p: &GlobalProblem) {
         let np = p.n_joints();
         self.mv.resize(p.n(), 0.0);
         self.hr.resize(p.n(), 0.0);

@@ -17,7 +17,7 @@ use crate::types::Error;
 /// target velocity). A row may instead take its bounds from a contact: `[-e r_n, e r_n]`
 /// with `r_n` the contact's normal impulse and `e` the row's coefficient (rolling and
 /// spinning friction, docs/algorithms.md §1.4).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct Joints {
     /// `n x p` joint Jacobian transpose.
     pub g: CscMatrix,
@@ -257,7 +257,7 @@ fn check_compliance(c: &[f64], p: usize) -> Result<(), Error> {
 }
 
 /// Global (velocity) form: mass matrix, contact Jacobian transpose and data.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct GlobalProblem {
     /// `n x n` symmetric positive definite mass matrix, both triangles stored.
     pub m: CscMatrix,
@@ -271,6 +271,71 @@ pub struct GlobalProblem {
     pub mu: Vec<f64>,
     /// Optional bilateral constraints.
     pub joints: Option<Joints>,
+}
+
+impl Clone for Joints {
+    fn clone(&self) -> Self {
+        Self {
+            g: self.g.clone(),
+            b: self.b.clone(),
+            lo: self.lo.clone(),
+            hi: self.hi.clone(),
+            compliance: self.compliance.clone(),
+            friction_contact: self.friction_contact.clone(),
+            friction: self.friction.clone(),
+        }
+    }
+
+    /// Reuses the arrays' memory (a solver rebuilt for each step's problem).
+    fn clone_from(&mut self, source: &Self) {
+        let Self {
+            g,
+            b,
+            lo,
+            hi,
+            compliance,
+            friction_contact,
+            friction,
+        } = self;
+        g.clone_from(&source.g);
+        b.clone_from(&source.b);
+        lo.clone_from(&source.lo);
+        hi.clone_from(&source.hi);
+        compliance.clone_from(&source.compliance);
+        friction_contact.clone_from(&source.friction_contact);
+        friction.clone_from(&source.friction);
+    }
+}
+
+impl Clone for GlobalProblem {
+    fn clone(&self) -> Self {
+        Self {
+            m: self.m.clone(),
+            h: self.h.clone(),
+            f: self.f.clone(),
+            w: self.w.clone(),
+            mu: self.mu.clone(),
+            joints: self.joints.clone(),
+        }
+    }
+
+    /// Reuses the arrays' memory (a solver rebuilt for each step's problem).
+    fn clone_from(&mut self, source: &Self) {
+        let Self {
+            m,
+            h,
+            f,
+            w,
+            mu,
+            joints,
+        } = self;
+        m.clone_from(&source.m);
+        h.clone_from(&source.h);
+        f.clone_from(&source.f);
+        w.clone_from(&source.w);
+        mu.clone_from(&source.mu);
+        joints.clone_from(&source.joints);
+    }
 }
 
 /// Local (Delassus) form: `u = W r + q`.

@@ -206,6 +206,48 @@ impl Solver {
         self.keep_budgeted_if(fits)
     }
 
+    /// Replaces the problem by one of any sizes and patterns (the next time step of a scene
+    /// whose contacts changed), keeping the settings and the interrupt: the solver becomes
+    /// what [`Solver::new`] builds for `problem` with its settings. A budgeted solver
+    /// (`auto` with a time limit, started by Gauss-Seidel sweeps) builds the new problem's
+    /// sweeps in the memory of those it replaced the time before, so that a solver rebuilt
+    /// at every step stops allocating and faulting in fresh pages once the sizes have been
+    /// seen. A refused problem changes nothing. The next solve starts cold unless
+    /// [`Solver::warm_start`] is called after this.
+    pub fn rebuild(&mut self, problem: &Problem) -> Result<(), Error> {
+        let t0 = Instant::now();
+        problem.validate()?;
+        let reused = match (&mut self.budgeted, problem) {
+            (Some(b), Problem::Global(g)) if BudgetedStart::asked_by(&self.inner) => {
+                b.rebuild(g)?
+            }
+            _ => false,
+        };
+        if !reused {
+            let mut fresh = Self::new(problem.clone(), self.settings.clone())?;
+            if let Some(flag) = &self.interrupt {
+                fresh.set_interrupt(flag.clone());
+            }
+            *self = fresh;
+            return Ok(());
+        }
+        self.layout = None;
+        self.solves = 0;
+        let (nc, n, np) = (
+            problem.n_contacts(),
+            problem.n_velocities(),
+            problem.n_joints(),
+        );
+        self.solution.zeroed(3 * nc, n, np);
+        self.island_stats.clear();
+        self.stats = Stats {
+            islands: usize::from(nc > 0),
+            setup_seconds: t0.elapsed().as_secs_f64(),
+            ..Stats::default()
+        };
+        Ok(())
+    }
+
     /// Drops the Gauss-Seidel start when the problem no longer suits it (M lost its
     /// symmetry), building the islands from its problem if they are not yet.
     fn keep_budgeted_if(&mut self, fits: bool) -> Result<(), Error> {

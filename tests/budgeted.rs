@@ -240,3 +240,75 @@ fn kept_jointed_solvers_go_to_their_islands() {
         solver.update_values(&NewValues::default()).unwrap();
     }
 }
+
+fn global(rel: &str) -> GlobalProblem {
+    match fclib::read(common::data(rel)).unwrap_or_else(|e| panic!("{rel}: {e}")) {
+        Problem::Global(g) => g,
+        Problem::Local(_) => panic!("{rel} is global"),
+    }
+}
+
+/// A solver rebuilt for problems of other sizes and patterns, in turn (its sweeps built in
+/// the memory of those it replaced), hands back what a new solver for each hands back, digit
+/// for digit, with and without a budget, swept alone or handed over to the islands.
+#[test]
+fn a_rebuilt_solver_answers_as_a_new_one() {
+    let small = box_stack();
+    let large = global("global/Box_Stacks-i0207-114-3.hdf5");
+    let sequence = [&small, &large, &small, &large, &large];
+    for settings in [budget(1e-3, 10.0), budget(1e-8, 60.0), Settings::default()] {
+        let mut kept: Option<Solver> = None;
+        for (step, p) in sequence.iter().enumerate() {
+            let problem = Problem::Global((*p).clone());
+            let mut fresh = Solver::new(problem.clone(), settings.clone()).unwrap();
+            let rebuilt = match &mut kept {
+                Some(s) => {
+                    s.rebuild(&problem).unwrap();
+                    s
+                }
+                None => kept.insert(Solver::new(problem, settings.clone()).unwrap()),
+            };
+            if step % 2 == 1 {
+                // The warm start reaches a rebuilt solver's sweeps too.
+                let r = vec![0.01; 3 * p.mu.len()];
+                fresh.warm_start(&r, None).unwrap();
+                rebuilt.warm_start(&r, None).unwrap();
+            }
+            let (status, error) = solve(rebuilt, p);
+            assert_eq!(status, solve(&mut fresh, p).0, "step {step}");
+            assert!(error <= settings.tolerance, "step {step}: {error:e}");
+            assert_eq!(rebuilt.solution().r, fresh.solution().r, "step {step}");
+            assert_eq!(rebuilt.solution().v, fresh.solution().v, "step {step}");
+            let (a, b) = (rebuilt.stats(), fresh.stats());
+            assert_eq!(
+                (a.gauss_seidel_sweeps, a.iterations, a.islands),
+                (b.gauss_seidel_sweeps, b.iterations, b.islands),
+                "step {step}"
+            );
+        }
+    }
+}
+
+/// A rebuild refused (an M that is not positive definite) leaves the solver with its
+/// problem: it answers as before.
+#[test]
+fn a_refused_rebuild_changes_nothing() {
+    let p = box_stack();
+    let other = global("global/Box_Stacks-i0207-114-3.hdf5");
+    let mut solver = Solver::new(Problem::Global(p.clone()), budget(1e-4, 10.0)).unwrap();
+    solver.rebuild(&Problem::Global(other.clone())).unwrap();
+    solver.rebuild(&Problem::Global(p.clone())).unwrap();
+    let (_, before) = solve(&mut solver, &p);
+    let mut bad = other;
+    let mut m = bad.m.values().to_vec();
+    let at = (bad.m.colptr()[0]..bad.m.colptr()[1])
+        .find(|&k| bad.m.rowind()[k] == 0)
+        .unwrap();
+    m[at] = -m[at];
+    bad.m.set_values("M", &m).unwrap();
+    let refused = solver.rebuild(&Problem::Global(bad));
+    assert!(refused.is_err(), "{refused:?}");
+    let (_, after) = solve(&mut solver, &p);
+    assert_eq!(before, after, "the same problem, the same answer");
+    assert_eq!(solver.n_velocities(), p.n());
+}

@@ -50,7 +50,8 @@ SolveStats CadmmConstraintSolver::takeStats() { return std::exchange(stats_, Sol
 // Hands a time step's values to cadmm: when the sizes and sparsity patterns are those of the
 // solver's problem, the value arrays go straight to the solver (same order of the matrix
 // values; numeric refactorization only, no cadmm problem built), with the joint rows'
-// bounds and compliance while either step has some; else a new solver.
+// bounds and compliance while either step has some; else the solver is rebuilt for the new
+// pattern (a new solver the first time).
 void CadmmConstraintSolver::pushValues(const ContactProblem &p) {
   if (solver_ && p.samePattern(current_)) {
     const bool joints = p.jointRows() > 0;  // G and b only for a problem with joints
@@ -67,10 +68,11 @@ void CadmmConstraintSolver::pushValues(const ContactProblem &p) {
     return;
   }
   std::unique_ptr<cadmm_problem, void (*)(cadmm_problem *)> problem(p.make(), cadmm_problem_free);
-  cadmm_solver *fresh = nullptr;
-  check(cadmm_solver_new(problem.get(), settings_, &fresh), "cadmm_solver_new");
-  cadmm_solver_free(solver_);
-  solver_ = fresh;
+  if (solver_) {  // rebuilt in the memory it holds
+    check(cadmm_solver_rebuild(solver_, problem.get()), "cadmm_solver_rebuild", solver_);
+  } else {
+    check(cadmm_solver_new(problem.get(), settings_, &solver_), "cadmm_solver_new");
+  }
   ++stats_.newSolvers;
 }
 

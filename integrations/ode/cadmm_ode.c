@@ -1397,15 +1397,24 @@ static cadmm_result keep_limits(cadmm_ode *ctx) {
     return CADMM_OK;
 }
 
-/* A new solver for the assembled problem, its pattern and limits kept. */
+/* The solver rebuilt for the assembled problem (in the memory it holds; a new one the first
+ * time), its pattern and limits kept. A failure leaves no solver, so the next step builds
+ * one. */
 static cadmm_result rebuild(cadmm_ode *ctx) {
-    cadmm_solver_free(ctx->solver);
-    ctx->solver = NULL;
     ctx->solver_pattern_len = 0;
     cadmm_result rc = build_problem(ctx);
-    if (rc != CADMM_OK) return rc;
-    rc = cadmm_solver_new(ctx->problem, ctx->settings, &ctx->solver);
-    if (rc != CADMM_OK) return fail_cadmm(ctx, rc, "cadmm_solver_new");
+    if (rc == CADMM_OK && ctx->solver) {
+        rc = cadmm_solver_rebuild(ctx->solver, ctx->problem);
+        if (rc != CADMM_OK) rc = fail_cadmm(ctx, rc, "cadmm_solver_rebuild");
+    } else if (rc == CADMM_OK) {
+        rc = cadmm_solver_new(ctx->problem, ctx->settings, &ctx->solver);
+        if (rc != CADMM_OK) rc = fail_cadmm(ctx, rc, "cadmm_solver_new");
+    }
+    if (rc != CADMM_OK) {
+        cadmm_solver_free(ctx->solver);
+        ctx->solver = NULL;
+        return rc;
+    }
     if (!reserve(&ctx->solver_pattern, ctx->pattern_len, sizeof(long)))
         return fail(ctx, CADMM_ERR_PANIC, "out of memory");
     memcpy(ctx->solver_pattern.data, ctx->pattern.data, ctx->pattern_len * sizeof(long));

@@ -71,11 +71,7 @@ impl ContactBlock {
             let u = [wr[0] + q[0], wr[1] + q[1], wr[2] + q[2]];
             let un = u[0] + de_saxce_term(u, mu);
             r = project_cone(
-                [
-                    r[0] - step * un,
-                    r[1] - step * u[1],
-                    r[2] - step * u[2],
-                ],
+                [r[0] - step * un, r[1] - step * u[1], r[2] - step * u[2]],
                 mu,
             );
         }

@@ -69,31 +69,64 @@ impl GaussSeidel {
     /// `None` otherwise. [`GaussSeidel::take_values`] takes the values before the first
     /// run.
     pub(crate) fn new(p: &GlobalProblem) -> Option<Self> {
-        let mut mass = BlockDiagonal::of(&p.m)?;
+        let mut sweeps = Self {
+            mass: BlockDiagonal::default(),
+            no_shift: Vec::new(),
+            contacts: RowGroups::default(),
+            blocks: Vec::new(),
+            joints: None,
+            joint_gain: Vec::new(),
+            r: Vec::new(),
+            lambda: Vec::new(),
+            v: Vec::new(),
+            best_r: Vec::new(),
+            best_lambda: Vec::new(),
+            best_v: Vec::new(),
+            best_error: f64::INFINITY,
+            forces: Vec::new(),
+            position: Vec::new(),
+        };
+        sweeps.refit(p).then_some(sweeps)
+    }
+
+    /// Becomes [`GaussSeidel::new`]`(p)` in the memory it holds (a solver rebuilt for a
+    /// step whose contacts changed: no allocation once the sizes have been seen); false,
+    /// and left to be refitted or dropped, when `p` does not suit the sweeps.
+    pub(crate) fn refit(&mut self, p: &GlobalProblem) -> bool {
+        let Some(mut mass) = BlockDiagonal::of(&p.m) else {
+            return false;
+        };
         mass.take_values(&p.m);
         if !mass.is_symmetric() {
-            return None;
+            return false;
         }
-        let contacts = RowGroups::new(&p.h, &mass);
-        let joints = p.joints.as_ref().map(|j| RowGroups::new(&j.g, &mass));
+        self.contacts.refit(&p.h, &mass);
+        match (&mut self.joints, &p.joints) {
+            (Some(rows), Some(j)) => rows.refit(&j.g, &mass),
+            (rows, j) => *rows = j.as_ref().map(|j| RowGroups::new(&j.g, &mass)),
+        }
         let (n, m, np) = (p.n(), p.w.len(), p.n_joints());
-        Some(Self {
-            no_shift: vec![0.0; mass.entries()],
-            mass,
-            contacts,
-            blocks: vec![ContactBlock::default(); p.n_contacts()],
-            joints,
-            joint_gain: vec![0.0; np],
-            r: vec![0.0; m],
-            lambda: vec![0.0; np],
-            v: vec![0.0; n],
-            best_r: vec![0.0; m],
-            best_lambda: vec![0.0; np],
-            best_v: vec![0.0; n],
-            best_error: f64::INFINITY,
-            forces: vec![0.0; n],
-            position: vec![0; n],
-        })
+        self.blocks.clear();
+        self.blocks.resize(p.n_contacts(), ContactBlock::default());
+        for (x, len) in [
+            (&mut self.no_shift, mass.entries()),
+            (&mut self.joint_gain, np),
+            (&mut self.r, m),
+            (&mut self.lambda, np),
+            (&mut self.v, n),
+            (&mut self.best_r, m),
+            (&mut self.best_lambda, np),
+            (&mut self.best_v, n),
+            (&mut self.forces, n),
+        ] {
+            x.clear();
+            x.resize(len, 0.0);
+        }
+        self.position.clear();
+        self.position.resize(n, 0);
+        self.best_error = f64::INFINITY;
+        self.mass = mass;
+        true
     }
 
     /// Inverts M's blocks (an error when one is not positive definite, or M is not

@@ -19,15 +19,35 @@ pub(super) struct RowGroups<const ROWS: usize> {
     minv_a: Vec<f64>,
 }
 
+impl<const ROWS: usize> Default for RowGroups<ROWS> {
+    /// No group.
+    fn default() -> Self {
+        Self {
+            start: vec![0],
+            reach: Vec::new(),
+            a_t: Vec::new(),
+            minv_a: Vec::new(),
+        }
+    }
+}
+
 impl<const ROWS: usize> RowGroups<ROWS> {
     /// The groups of `ROWS` consecutive columns of `a` (`n x ROWS groups`), over the blocks
     /// of `mass`. Values are taken by [`RowGroups::take_values`].
     pub fn new(a: &CscMatrix, mass: &BlockDiagonal) -> Self {
+        let mut groups = Self::default();
+        groups.refit(a, mass);
+        groups
+    }
+
+    /// Becomes [`RowGroups::new`]`(a, mass)` in the memory it holds.
+    pub fn refit(&mut self, a: &CscMatrix, mass: &BlockDiagonal) {
         let rows = ROWS;
         let groups = a.ncols() / rows;
-        let mut start = Vec::with_capacity(groups + 1);
+        let (start, reach) = (&mut self.start, &mut self.reach);
+        start.clear();
         start.push(0);
-        let mut reach = Vec::with_capacity(2 * a.nnz() / rows);
+        reach.clear();
         // A group touches one or two bodies: a linear search beats sorting its entries.
         let mut touched: Vec<usize> = Vec::new();
         for g in 0..groups {
@@ -47,11 +67,9 @@ impl<const ROWS: usize> RowGroups<ROWS> {
             start.push(reach.len());
         }
         let len = rows * reach.len();
-        Self {
-            start,
-            reach,
-            a_t: vec![0.0; len],
-            minv_a: vec![0.0; len],
+        for x in [&mut self.a_t, &mut self.minv_a] {
+            x.clear();
+            x.resize(len, 0.0);
         }
     }
 

@@ -100,10 +100,10 @@ impl GaussSeidel {
         if !mass.is_symmetric() {
             return false;
         }
-        self.contacts.refit(&p.h, &mass);
+        self.contacts.refit(&p.h, &mass, true);
         match (&mut self.joints, &p.joints) {
-            (Some(rows), Some(j)) => rows.refit(&j.g, &mass),
-            (rows, j) => *rows = j.as_ref().map(|j| RowGroups::new(&j.g, &mass)),
+            (Some(rows), Some(j)) => rows.refit(&j.g, &mass, false),
+            (rows, j) => *rows = j.as_ref().map(|j| RowGroups::new(&j.g, &mass, false)),
         }
         let (n, m, np) = (p.n(), p.w.len(), p.n_joints());
         self.blocks.clear();
@@ -243,11 +243,12 @@ impl GaussSeidel {
 
     /// One pass over the contacts in order, then over the joint rows.
     fn sweep(&mut self, p: &GlobalProblem) {
-        for c in 0..self.blocks.len() {
-            let hv = self.contacts.apply(c, &self.v);
+        // `g` in the groups' stored order (interleaved, `RowGroups::refit`), `c` the contact.
+        for (g, block) in self.blocks.iter_mut().enumerate() {
+            let c = self.contacts.source(g);
+            let hv = self.contacts.apply(g, &self.v);
             let w = get3(&p.w, c);
             let u = [hv[0] + w[0], hv[1] + w[1], hv[2] + w[2]];
-            let block = &mut self.blocks[c];
             let r_old = get3(&self.r, c);
             let w_r = block.mul(r_old);
             let q = [u[0] - w_r[0], u[1] - w_r[1], u[2] - w_r[2]];
@@ -259,7 +260,7 @@ impl GaussSeidel {
             ];
             if dr != [0.0; 3] {
                 set3(&mut self.r, c, r_new);
-                self.contacts.add(c, dr, &mut self.v);
+                self.contacts.add(g, dr, &mut self.v);
             }
         }
         let (Some(rows), Some(j)) = (&self.joints, &p.joints) else {

@@ -17,6 +17,12 @@ pub(super) struct RowGroups<const ROWS: usize> {
     /// `ROWS * start[g]`; `minv_a` the same for `(M^-1 A)^T`.
     a_t: Vec<f64>,
     minv_a: Vec<f64>,
+    /// Group `g` holds columns `ROWS * source[g]..ROWS * (source[g] + 1)` of A.
+    source: Vec<usize>,
+    /// Work space of the interleaving: each column group's rank, and how many groups
+    /// have each rank.
+    rank: Vec<usize>,
+    count: Vec<usize>,
 }
 
 impl<const ROWS: usize> Default for RowGroups<ROWS> {
@@ -27,30 +33,80 @@ impl<const ROWS: usize> Default for RowGroups<ROWS> {
             reach: Vec::new(),
             a_t: Vec::new(),
             minv_a: Vec::new(),
+            source: Vec::new(),
+            rank: Vec::new(),
+            count: Vec::new(),
         }
     }
 }
 
 impl<const ROWS: usize> RowGroups<ROWS> {
     /// The groups of `ROWS` consecutive columns of `a` (`n x ROWS groups`), over the blocks
-    /// of `mass`. Values are taken by [`RowGroups::take_values`].
-    pub fn new(a: &CscMatrix, mass: &BlockDiagonal) -> Self {
+    /// of `mass`, in the columns' order or interleaved ([`RowGroups::refit`]). Values are
+    /// taken by [`RowGroups::take_values`].
+    pub fn new(a: &CscMatrix, mass: &BlockDiagonal, interleave: bool) -> Self {
         let mut groups = Self::default();
-        groups.refit(a, mass);
+        groups.refit(a, mass, interleave);
         groups
     }
 
-    /// Becomes [`RowGroups::new`]`(a, mass)` in the memory it holds.
-    pub fn refit(&mut self, a: &CscMatrix, mass: &BlockDiagonal) {
+    /// Becomes [`RowGroups::new`] in the memory it holds. `interleave` stores first each
+    /// pair of bodies' first group, then their second, and so on: consecutive groups of a
+    /// sweep then rarely share a body, so that one need not wait for the velocities the one
+    /// before it has just written (an engine lists a manifold's points one after the
+    /// other, each on the same two bodies).
+    pub fn refit(&mut self, a: &CscMatrix, mass: &BlockDiagonal, interleave: bool) {
         let rows = ROWS;
         let groups = a.ncols() / rows;
+        let bodies = |g: usize| {
+            let mut span = (usize::MAX, 0);
+            for (i, _) in (0..rows).flat_map(|d| a.col(rows * g + d)) {
+                let b = mass.block_containing(i);
+                span = (span.0.min(b), span.1.max(b));
+            }
+            span
+        };
+        self.source.clear();
+        if interleave {
+            // A group's rank: its place in a run of consecutive groups on the same bodies
+            // (a manifold's points); then the groups by rank, each rank in the columns'
+            // order (a counting sort).
+            let (rank, count) = (&mut self.rank, &mut self.count);
+            rank.clear();
+            count.clear();
+            let mut previous = None;
+            for g in 0..groups {
+                let pair = bodies(g);
+                let r = match previous == Some(pair) {
+                    true => rank[g - 1] + 1,
+                    false => 0,
+                };
+                previous = Some(pair);
+                rank.push(r);
+                if count.len() <= r {
+                    count.resize(r + 1, 0);
+                }
+                count[r] += 1;
+            }
+            let mut next = 0;
+            for c in count.iter_mut() {
+                (*c, next) = (next, next + *c);
+            }
+            self.source.resize(groups, 0);
+            for (g, &r) in rank.iter().enumerate() {
+                self.source[count[r]] = g;
+                count[r] += 1;
+            }
+        } else {
+            self.source.extend(0..groups);
+        }
         let (start, reach) = (&mut self.start, &mut self.reach);
         start.clear();
         start.push(0);
         reach.clear();
         // A group touches one or two bodies: a linear search beats sorting its entries.
         let mut touched: Vec<usize> = Vec::new();
-        for g in 0..groups {
+        for &g in &self.source {
             touched.clear();
             for d in 0..rows {
                 for (i, _) in a.col(rows * g + d) {
@@ -73,6 +129,12 @@ impl<const ROWS: usize> RowGroups<ROWS> {
         }
     }
 
+    /// The group of A's columns stored as group `g`.
+    #[inline]
+    pub fn source(&self, g: usize) -> usize {
+        self.source[g]
+    }
+
     /// Number of groups.
     pub fn len(&self) -> usize {
         self.start.len() - 1
@@ -92,7 +154,7 @@ impl<const ROWS: usize> RowGroups<ROWS> {
             let (a_t, minv_a) = (&mut self.a_t[span.clone()], &mut self.minv_a[span]);
             a_t.fill(0.0);
             for d in 0..rows {
-                for (i, x) in a.col(rows * g + d) {
+                for (i, x) in a.col(rows * self.source[g] + d) {
                     a_t[d * len + position[i]] = x;
                 }
             }
@@ -156,6 +218,52 @@ impl<const ROWS: usize> RowGroups<ROWS> {
                 sum += minv_a[d * len + k] * xd;
             }
             v[i] += sum;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three bodies of one velocity each (M = I); contacts as an engine lists them, a
+    /// manifold's points one after the other: three on bodies (0, 1), two on (1, 2), one
+    /// on body 2 alone. Interleaved, each pair's first point comes first, then the
+    /// seconds, then the third; every group keeps its own column's values.
+    #[test]
+    fn interleaving_spreads_a_manifolds_points() {
+        let bodies: [&[usize]; 6] = [&[0, 1], &[0, 1], &[0, 1], &[1, 2], &[1, 2], &[2]];
+        let (mut colptr, mut rowind, mut values) = (vec![0], Vec::new(), Vec::new());
+        for (g, touched) in bodies.iter().enumerate() {
+            for d in 0..3 {
+                for &i in *touched {
+                    rowind.push(i);
+                    values.push((10 * g + d) as f64 + 0.1 * i as f64);
+                }
+                colptr.push(rowind.len());
+            }
+        }
+        let h = CscMatrix::new("H", 3, 18, colptr, rowind, values).unwrap();
+        let mut mass = BlockDiagonal::of(&CscMatrix::identity(3)).unwrap();
+        mass.take_values(&CscMatrix::identity(3));
+        mass.invert(0.0, &[0.0; 3]).unwrap();
+        for interleave in [false, true] {
+            let mut groups = RowGroups::<3>::new(&h, &mass, interleave);
+            let order: Vec<usize> = (0..6).map(|g| groups.source(g)).collect();
+            let expected = match interleave {
+                true => vec![0, 3, 5, 1, 4, 2],
+                false => (0..6).collect(),
+            };
+            assert_eq!(order, expected);
+            groups.take_values(&h, &mass, &mut [0; 3]);
+            let v = [1.0, 10.0, 100.0];
+            for (g, &c) in order.iter().enumerate() {
+                let expected: [f64; 3] = std::array::from_fn(|d| {
+                    let value = |i: usize| (10 * c + d) as f64 + 0.1 * i as f64;
+                    bodies[c].iter().map(|&i| value(i) * v[i]).sum()
+                });
+                assert_eq!(groups.apply(g, &v), expected, "group {g}, contact {c}");
+            }
         }
     }
 }

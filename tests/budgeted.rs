@@ -312,3 +312,20 @@ fn a_refused_rebuild_changes_nothing() {
     assert_eq!(before, after, "the same problem, the same answer");
     assert_eq!(solver.n_velocities(), p.n());
 }
+
+/// Sweeps stopped by their limit whose last measure meets the tolerance report it solved.
+#[test]
+fn a_last_measure_that_meets_the_tolerance_is_solved() {
+    let p = box_stack();
+    let limited = |tolerance| Settings {
+        max_iterations: 3,
+        ..budget(tolerance, 10.0)
+    };
+    let mut solver = Solver::new(Problem::Global(p.clone()), limited(1e-14)).unwrap();
+    let (status, after_three) = solve(&mut solver, &p);
+    assert_eq!(status, Status::MaxIterations);
+    assert_eq!(solver.stats().gauss_seidel_sweeps, 3);
+    let mut solver = Solver::new(Problem::Global(p.clone()), limited(2.0 * after_three)).unwrap();
+    let (status, error) = solve(&mut solver, &p);
+    assert_eq!((status, error), (Status::Solved, after_three));
+}

@@ -201,10 +201,12 @@ impl GaussSeidel {
                 if !measured {
                     self.measure(p, work);
                 }
-                outcome.status = Some(match out_of_time {
+                // The last measure may meet the tolerance: then it is solved, not stopped.
+                let stopped = match out_of_time {
                     true => Status::TimeLimit,
                     false => Status::MaxIterations,
-                });
+                };
+                outcome.status = measured_status(self.best_error, limits).or(Some(stopped));
             } else {
                 let at = Instant::now();
                 self.sweep(p);

@@ -16,7 +16,8 @@ use std::time::Duration;
 /// How often a solve's calling thread runs Python's signal handlers (Ctrl-C).
 const SIGNAL_POLL: Duration = Duration::from_millis(50);
 
-/// Solves one frictional contact problem, and its successors with the same pattern.
+/// Solves one frictional contact problem, and its successors (the same pattern through
+/// `update_values`, any other through `rebuild`).
 #[pyclass(module = "cadmm")]
 pub struct Solver {
     /// Behind a lock: one solve at a time, and the GIL released while it runs.
@@ -189,6 +190,22 @@ impl Solver {
     ) -> PyResult<()> {
         let (r, v) = (vector("r", r)?, optional_vector("v", v)?);
         self.lock()?.warm_start(&r, v.as_deref()).or_raise(py)
+    }
+
+    /// Replaces the problem by one of any sizes and sparsity patterns (the next time step
+    /// of a scene whose contacts changed), keeping the settings, with the GIL released: the
+    /// solver becomes what `Solver(problem, settings)` builds, reusing the memory it holds.
+    /// A refused problem changes nothing. The next solve starts from zero unless
+    /// `warm_start` follows.
+    fn rebuild(&mut self, py: Python<'_>, problem: &Bound<'_, PyAny>) -> PyResult<()> {
+        let built = problem_of(problem)?;
+        {
+            let mut guard = self.lock()?;
+            let solver: &mut cadmm::Solver = &mut guard;
+            py.detach(|| solver.rebuild(&built)).or_raise(py)?;
+        }
+        self.problem = problem.clone().unbind();
+        Ok(())
     }
 
     /// Changes the settings between solves: the tolerance, the iteration and time limits

@@ -90,6 +90,33 @@ def test_update_values_is_the_next_problem():
         s.update_values(q=[0.0, 0.0, 0.0])
 
 
+def test_rebuild_takes_a_problem_of_another_pattern():
+    # With and without a time limit (the sweeps then built in the memory they replace): a
+    # box on the ground, then two contacts on the same rows (they stick, r_a + r_b = -f),
+    # then the box again; a refused problem (an indefinite M) changes nothing.
+    for settings in (cadmm.Settings(), cadmm.Settings(time_limit=10.0)):
+        s = cadmm.Solver(ground(1.0), settings)
+        h2 = sp.hstack([sp.identity(3), sp.identity(3)]).tocsc()
+        two = cadmm.GlobalProblem(np.eye(3), h2, [-G, 0.1, 0.0], np.zeros(6), [MU, MU])
+        s.rebuild(two)
+        assert s.solve() == cadmm.Status.SOLVED
+        r = s.solution.r
+        np.testing.assert_allclose(r[:3] + r[3:], [G, -0.1, 0.0], atol=1e-7)
+        np.testing.assert_allclose(s.solution.v, np.zeros(3), atol=1e-7)
+        m = np.diag([1.0, -1.0, 1.0])
+        indefinite = cadmm.GlobalProblem(m, sp.identity(3, format="csr"), [-G, 0.1, 0.0], np.zeros(3), [MU])
+        with pytest.raises(cadmm.NotPositiveDefiniteError):
+            s.rebuild(indefinite)
+        assert s.solve() == cadmm.Status.SOLVED
+        assert len(s.solution.r) == 6
+        s.rebuild(ground(1.0))
+        assert s.solve() == cadmm.Status.SOLVED
+        assert len(s.solution.r) == 3
+        s.update_values(f=[-G, 10.0, 0.0], M=sp.identity(3) * 1.0)
+        assert s.solve() == cadmm.Status.SOLVED
+        np.testing.assert_allclose(s.solution.r, [G, -MU * G, 0.0], atol=1e-7)
+
+
 def test_settings_are_validated_when_set():
     s = cadmm.Settings(tolerance=1e-6, max_iterations=50, time_limit=2.0, variant="vp-RR-He", threads=2)
     assert (s.tolerance, s.max_iterations, s.time_limit, s.variant, s.threads) == (1e-6, 50, 2.0, "vp-RR-He", 2)

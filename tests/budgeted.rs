@@ -2,7 +2,8 @@
 //! §16): every answer it hands back is measured by the independent measure of `common` at
 //! the error it reports; the sweeps meet a loose tolerance alone, hand over to a tight one
 //! and still solve it; a budget too short for them hands back their best iterate; updates,
-//! refused updates and warm starts reach them; problems they do not suit solve as before.
+//! refused updates and warm starts reach them; problems they do not suit solve as before;
+//! a solver rebuilt for other patterns answers as a new one.
 #![cfg(feature = "fclib")]
 
 mod common;
@@ -328,4 +329,33 @@ fn a_last_measure_that_meets_the_tolerance_is_solved() {
     let mut solver = Solver::new(Problem::Global(p.clone()), limited(2.0 * after_three)).unwrap();
     let (status, error) = solve(&mut solver, &p);
     assert_eq!((status, error), (Status::Solved, after_three));
+}
+
+/// A budgeted solver rebuilt for a local problem (which the sweeps do not suit) solves it
+/// as a new solver with its settings would, and back again for a global one.
+#[test]
+fn a_rebuild_may_change_the_form() {
+    let global = box_stack();
+    let rel = "local/Capsules-i100-889.hdf5";
+    let Problem::Local(local) = fclib::read(common::data(rel)).unwrap() else {
+        panic!("{rel} is local")
+    };
+    let settings = budget(1e-6, 60.0);
+    let mut solver = Solver::new(Problem::Global(global.clone()), settings.clone()).unwrap();
+    solve(&mut solver, &global);
+    solver.rebuild(&Problem::Local(local.clone())).unwrap();
+    assert_eq!(solver.solve().unwrap(), Status::Solved);
+    let r = solver.solution().r.clone();
+    assert!(common::local_error(&local, &r) <= 1e-6);
+    let mut fresh = Solver::new(Problem::Local(local.clone()), settings).unwrap();
+    fresh.solve().unwrap();
+    assert_eq!(r, fresh.solution().r);
+    solver.rebuild(&Problem::Global(global.clone())).unwrap();
+    let (status, error) = solve(&mut solver, &global);
+    assert_eq!(status, Status::Solved);
+    assert!(error <= 1e-6);
+    assert!(
+        solver.stats().gauss_seidel_sweeps > 0,
+        "the sweeps are back"
+    );
 }

@@ -211,14 +211,14 @@ impl Solver {
     /// what [`Solver::new`] builds for `problem` with its settings. A budgeted solver
     /// (`auto` with a time limit, started by Gauss-Seidel sweeps) builds the new problem's
     /// sweeps in the memory of those it replaced the time before, so that a solver rebuilt
-    /// at every step stops allocating and faulting in fresh pages once the sizes have been
-    /// seen. A refused problem changes nothing. The next solve starts cold unless
+    /// at every step stops taking (and faulting in) fresh memory for its large arrays once
+    /// their sizes have been seen. A refused problem changes nothing. The next solve starts cold unless
     /// [`Solver::warm_start`] is called after this.
     pub fn rebuild(&mut self, problem: &Problem) -> Result<(), Error> {
         let t0 = Instant::now();
-        problem.validate()?;
         let reused = match (&mut self.budgeted, problem) {
             (Some(b), Problem::Global(g)) if BudgetedStart::asked_by(&self.inner) => {
+                problem.validate()?;
                 b.rebuild(g)?
             }
             _ => false,

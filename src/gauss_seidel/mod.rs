@@ -25,7 +25,8 @@ use rows::RowGroups;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-/// The sweeps' data and iterates.
+/// The sweeps' data and iterates (empty by default, until [`GaussSeidel::refit`]).
+#[derive(Default)]
 pub(crate) struct GaussSeidel {
     /// M's blocks and their inverses.
     mass: BlockDiagonal,
@@ -69,29 +70,14 @@ impl GaussSeidel {
     /// `None` otherwise. [`GaussSeidel::take_values`] takes the values before the first
     /// run.
     pub(crate) fn new(p: &GlobalProblem) -> Option<Self> {
-        let mut sweeps = Self {
-            mass: BlockDiagonal::default(),
-            no_shift: Vec::new(),
-            contacts: RowGroups::default(),
-            blocks: Vec::new(),
-            joints: None,
-            joint_gain: Vec::new(),
-            r: Vec::new(),
-            lambda: Vec::new(),
-            v: Vec::new(),
-            best_r: Vec::new(),
-            best_lambda: Vec::new(),
-            best_v: Vec::new(),
-            best_error: f64::INFINITY,
-            forces: Vec::new(),
-            position: Vec::new(),
-        };
+        let mut sweeps = Self::default();
         sweeps.refit(p).then_some(sweeps)
     }
 
     /// Becomes [`GaussSeidel::new`]`(p)` in the memory it holds (a solver rebuilt for a
-    /// step whose contacts changed: no allocation once the sizes have been seen); false,
-    /// and left to be refitted or dropped, when `p` does not suit the sweeps.
+    /// step whose contacts changed: its arrays over the contacts and velocities are reused;
+    /// M's block structure is built anew); false, and left to be refitted or dropped, when
+    /// `p` does not suit the sweeps.
     pub(crate) fn refit(&mut self, p: &GlobalProblem) -> bool {
         let Some(mut mass) = BlockDiagonal::of(&p.m) else {
             return false;

@@ -58,13 +58,12 @@ impl<const ROWS: usize> RowGroups<ROWS> {
     pub fn refit(&mut self, a: &CscMatrix, mass: &BlockDiagonal, interleave: bool) {
         let rows = ROWS;
         let groups = a.ncols() / rows;
+        // The first and last block of a group's first column: which bodies it couples (the
+        // interleaving's key only; the reach below reads every column).
         let bodies = |g: usize| {
-            let mut span = (usize::MAX, 0);
-            for (i, _) in (0..rows).flat_map(|d| a.col(rows * g + d)) {
-                let b = mass.block_containing(i);
-                span = (span.0.min(b), span.1.max(b));
-            }
-            span
+            let mut column = a.col(rows * g).map(|(i, _)| mass.block_containing(i));
+            let first = column.next();
+            (first, column.last().or(first))
         };
         self.source.clear();
         if interleave {

@@ -176,12 +176,6 @@ impl BudgetedStart {
         self.problem.n_joints() > 3 * self.problem.n_contacts()
     }
 
-    /// Passes the warm start to the coupled solve without sweeping (it becomes
-    /// [`BudgetedStart::used_warm`]).
-    pub(crate) fn pass(&mut self) {
-        self.used_warm = self.warm.take();
-    }
-
     /// The warm start the last run began from (impulses, and velocities when given).
     pub(crate) fn used_warm(&self) -> Option<(&[f64], Option<&[f64]>)> {
         let (r, v) = self.used_warm.as_ref()?;

@@ -327,13 +327,10 @@ impl Solver {
         // Sweeps carry a correction along a chain of joints one link a sweep; the islands'
         // factorized system solves the joint rows exactly, once a kept solver has paid for
         // building it (docs/algorithms.md §17). The pattern, and so the choice, stays with
-        // the solver: its sweeps go, and updates no longer refresh them.
-        if self.solves > BUDGET_JOINTED_AFTER && budgeted.jointed() {
-            budgeted.pass();
-            let status = self.hand_over(0, f64::INFINITY, t0)?;
-            self.keep_budgeted_if(false)?;
-            return Ok(status);
-        }
+        // the solver: its sweeps go, and updates no longer refresh them. They are built
+        // after the sweeps have answered this solve: built first, under an engine's budget
+        // they left no time to solve in, and handed back the cold start.
+        let pass = self.solves > BUDGET_JOINTED_AFTER && budgeted.jointed();
         let interrupt = self.interrupt.as_deref();
         let swept = budgeted.run(
             self.inner.tolerance,
@@ -342,11 +339,19 @@ impl Solver {
             interrupt,
         );
         budgeted.write_solution(&mut self.solution);
-        if let Some(status) = swept.status {
-            self.collect_swept(status, swept.sweeps, swept.error, t0);
-            return Ok(status);
+        let status = match swept.status {
+            Some(status) => {
+                self.collect_swept(status, swept.sweeps, swept.error, t0);
+                status
+            }
+            None => self.hand_over(swept.sweeps, swept.error, t0)?,
+        };
+        if pass {
+            let built = Instant::now();
+            self.keep_budgeted_if(false)?;
+            self.stats.setup_seconds += built.elapsed().as_secs_f64();
         }
-        self.hand_over(swept.sweeps, swept.error, t0)
+        Ok(status)
     }
 
     /// After sweeps that hand over: the islands (built now if need be, and then started

@@ -167,8 +167,9 @@ impl BudgetedStart {
             interrupt,
         };
         let r0 = self.used_warm.as_ref().map(|(r, _)| r.as_slice());
+        let v0 = self.used_warm.as_ref().and_then(|(_, v)| v.as_deref());
         self.sweeps
-            .run(&self.problem, r0, limits, &mut self.measure)
+            .run(&self.problem, r0, v0, limits, &mut self.measure)
     }
 
     /// Whether the problem's joint rows outnumber its contact rows.

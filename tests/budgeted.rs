@@ -106,6 +106,41 @@ fn warm_starts_and_new_values_reach_the_sweeps() {
     assert!(error <= 1e-4);
 }
 
+/// After a solved run, a warm start whose own velocities meet the tolerance is handed back
+/// as given (as a solver without a budget does), not with velocities recomputed from its
+/// impulses; after a run stopped by its limit, it is swept as before.
+#[test]
+fn a_warm_start_that_meets_the_tolerance_keeps_its_velocities() {
+    let p = box_stack();
+    let tolerance = 1e-4;
+    let given = |solver: &Solver| {
+        let s = solver.solution();
+        // Velocities off by a little, well within the tolerance.
+        let v: Vec<f64> = s.v.iter().map(|x| x * (1.0 + 1e-9)).collect();
+        (s.r.clone(), v)
+    };
+    let mut solver = Solver::new(Problem::Global(p.clone()), budget(tolerance, 10.0)).unwrap();
+    assert_eq!(solve(&mut solver, &p).0, Status::Solved);
+    let (r, v) = given(&solver);
+    assert!(common::global_error(&p, &r, &v, &[]) <= tolerance);
+    solver.warm_start(&r, Some(&v)).unwrap();
+    assert_eq!(solve(&mut solver, &p).0, Status::Solved);
+    assert_eq!(solver.stats().gauss_seidel_sweeps, 0);
+    assert_eq!((&solver.solution().r, &solver.solution().v), (&r, &v));
+
+    let mut stopped = Solver::new(Problem::Global(p.clone()), budget(1e-12, 1e-9)).unwrap();
+    assert_eq!(solve(&mut stopped, &p).0, Status::TimeLimit);
+    stopped.update_settings(budget(tolerance, 10.0)).unwrap();
+    stopped.warm_start(&r, Some(&v)).unwrap();
+    assert_eq!(solve(&mut stopped, &p).0, Status::Solved);
+    assert_eq!(stopped.solution().r, r);
+    assert_ne!(
+        stopped.solution().v,
+        v,
+        "velocities recomputed from the impulses"
+    );
+}
+
 #[test]
 fn a_refused_update_changes_nothing() {
     let p = box_stack();

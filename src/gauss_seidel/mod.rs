@@ -48,6 +48,8 @@ pub(crate) struct GaussSeidel {
     best_lambda: Vec<f64>,
     best_v: Vec<f64>,
     best_error: f64,
+    /// The last run was solved: its successor's warm start is worth measuring as it is.
+    solved_last: bool,
     /// `f + H r + G lambda`, while the velocities are computed from it; positions of the
     /// velocities in a group's reach, while its values are taken.
     forces: Vec<f64>,
@@ -143,9 +145,9 @@ impl GaussSeidel {
         Ok(())
     }
 
-    /// Sweeps from the impulses `r0` (zero when `None`; the joint multipliers from zero)
-    /// until the measure meets
-    /// `tolerance`, `max_sweeps` are done, the next sweep and measure would end past
+    /// Sweeps from the impulses `r0` (zero when `None`; the joint multipliers from zero),
+    /// unless the warm start `(r0, v0)` is taken as it is ([`GaussSeidel::take_warm_start`]),
+    /// until the measure meets `tolerance`, `max_sweeps` are done, the next sweep and measure would end past
     /// `deadline` (judged by the last ones; never before [`GAUSS_SEIDEL_FIRST_MEASURE`]
     /// sweeps), or the sweeps hand over ([`hand_over`]). The
     /// error is measured before the first sweep, after [`GAUSS_SEIDEL_FIRST_MEASURE`]
@@ -155,16 +157,15 @@ impl GaussSeidel {
         &mut self,
         p: &GlobalProblem,
         r0: Option<&[f64]>,
+        v0: Option<&[f64]>,
         limits: SweepLimits,
         work: &mut MeasureWork,
     ) -> SweepOutcome {
         let t0 = Instant::now();
-        match r0 {
-            Some(r) => self.r.copy_from_slice(r),
-            None => self.r.fill(0.0),
+        self.start(r0);
+        if let Some(outcome) = self.take_warm_start(p, v0, limits, work) {
+            return outcome;
         }
-        self.lambda.fill(0.0);
-        self.best_error = f64::INFINITY;
         let mut previous = self.measure(p, work);
         let mut outcome = SweepOutcome {
             status: None,
@@ -226,7 +227,48 @@ impl GaussSeidel {
             outcome.error = self.best_error;
             outcome.status = outcome.status.or(measured_status(outcome.error, limits));
         }
+        self.solved_last = outcome.status == Some(Status::Solved);
         outcome
+    }
+
+    /// Starts a run from the impulses `r0` (zero when `None`) and zero joint multipliers,
+    /// with no best iterate yet.
+    fn start(&mut self, r0: Option<&[f64]>) {
+        match r0 {
+            Some(r) => self.r.copy_from_slice(r),
+            None => self.r.fill(0.0),
+        }
+        self.lambda.fill(0.0);
+        self.best_error = f64::INFINITY;
+    }
+
+    /// A warm start that meets the tolerance with its own velocities `v0` is handed back
+    /// as it is, as the coupled solver's short cut does: velocities recomputed from its
+    /// impulses would move a resting scene's bodies by what the impulses miss, and the next
+    /// step's warm start would measure worse. Measured only after a solved run (a scene at
+    /// rest): in motion it would cost a measure a step. `self.r` holds the warm start's
+    /// impulses and `self.lambda` zeros.
+    fn take_warm_start(
+        &mut self,
+        p: &GlobalProblem,
+        v0: Option<&[f64]>,
+        limits: SweepLimits,
+        work: &mut MeasureWork,
+    ) -> Option<SweepOutcome> {
+        let v = v0.filter(|_| self.solved_last)?;
+        let error = global_error_with(p, &self.r, v, &self.lambda, work);
+        if error > limits.tolerance {
+            return None;
+        }
+        self.best_error = error;
+        self.best_r.copy_from_slice(&self.r);
+        self.best_v.copy_from_slice(v);
+        self.best_lambda.fill(0.0);
+        Some(SweepOutcome {
+            status: Some(Status::Solved),
+            sweeps: 0,
+            error,
+        })
     }
 
     /// One pass over the contacts in order, then over the joint rows.

@@ -150,6 +150,11 @@ impl BudgetedStart {
         Ok(())
     }
 
+    /// Whether a warm start was given since the last run.
+    pub(crate) fn warm_given(&self) -> bool {
+        self.warm.is_some()
+    }
+
     /// Sweeps to `tolerance` within `deadline` and `max_sweeps`, or until `interrupt` is
     /// set, from the warm start when one was given since the last run.
     pub(crate) fn run(
@@ -158,6 +163,7 @@ impl BudgetedStart {
         deadline: Option<Instant>,
         max_sweeps: usize,
         interrupt: Option<&AtomicBool>,
+        handover_sweeps: f64,
     ) -> SweepOutcome {
         self.used_warm = self.warm.take();
         let limits = SweepLimits {
@@ -165,6 +171,7 @@ impl BudgetedStart {
             deadline,
             max_sweeps,
             interrupt,
+            handover_sweeps,
         };
         let r0 = self.used_warm.as_ref().map(|(r, _)| r.as_slice());
         let v0 = self.used_warm.as_ref().and_then(|(_, v)| v.as_deref());

@@ -11,7 +11,10 @@ use crate::problem::{NewValues, Problem};
 use crate::scene::islands::{partition_global, partition_local};
 use crate::scene::Scene;
 use crate::settings::{Resolved, Settings};
-use crate::tuning::{BUDGET_JOINTED_AFTER, ROUND_OFF_MARGIN};
+use crate::tuning::{
+    BUDGET_JOINTED_AFTER, FIRST_STEP_HANDOVER_SWEEPS, GAUSS_SEIDEL_HANDOVER_SWEEPS,
+    ROUND_OFF_MARGIN,
+};
 use crate::types::{Error, Solution, Stats, Status, TracePoint};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -31,6 +34,8 @@ pub struct Solver {
     interrupt: Option<Arc<AtomicBool>>,
     /// Solves done: a budgeted solver kept across steps may go straight to its islands.
     solves: usize,
+    /// No solve yet since the solver was built (a rebuild does not count as built).
+    first_solve: bool,
     stats: Stats,
     island_stats: Vec<Stats>,
     /// The solution the last solve handed back (zeros before the first solve), kept so
@@ -157,6 +162,7 @@ impl Solver {
             budgeted,
             interrupt: None,
             solves: 0,
+            first_solve: true,
             stats: Stats::default(),
             island_stats: Vec::new(),
             solution,
@@ -228,6 +234,7 @@ impl Solver {
             if let Some(flag) = &self.interrupt {
                 fresh.set_interrupt(flag.clone());
             }
+            fresh.first_solve = self.first_solve;
             *self = fresh;
             return Ok(());
         }
@@ -332,11 +339,20 @@ impl Solver {
         // they left no time to solve in, and handed back the cold start.
         let pass = self.solves > BUDGET_JOINTED_AFTER && budgeted.jointed();
         let interrupt = self.interrupt.as_deref();
+        // An engine's first step (a new solver's first solve, warm started as an engine's
+        // loop does): the scene starts at rest more often than not, and every later step
+        // starts from this one's answer (tuning::FIRST_STEP_HANDOVER_SWEEPS).
+        let first_step = std::mem::replace(&mut self.first_solve, false) && budgeted.warm_given();
+        let handover_sweeps = match first_step {
+            true => FIRST_STEP_HANDOVER_SWEEPS,
+            false => GAUSS_SEIDEL_HANDOVER_SWEEPS,
+        };
         let swept = budgeted.run(
             self.inner.tolerance,
             deadline,
             self.inner.max_iterations,
             interrupt,
+            handover_sweeps,
         );
         budgeted.write_solution(&mut self.solution);
         let status = match swept.status {

@@ -55,6 +55,16 @@ pub const GAUSS_SEIDEL_PATIENCE: f64 = 3.0;
 /// 7.5e-3, 1.5e-3 and 3.1e-4.
 pub const GAUSS_SEIDEL_HANDOVER_SWEEPS: f64 = 2000.0;
 
+/// ... and on an engine's first step (a new solver's first solve, from a warm start) with
+/// this many. A scene starts at rest more often than not, where ADMM and Newton solve the
+/// first step in a few iterations (a 120-box pyramid in Bullet: 14, about 10 ms), and every
+/// later step starts from its answer: a resting scene whose first step is solved then
+/// takes each warm start as it is. Under a 16 ms budget that pyramid's steps went from
+/// 15.8 ms at median errors of 1e-3 (every step unsolved, 9 mm of drift) to 0.63 ms at
+/// 2e-5 (every step solved, no drift); without a budget they cost 0.37 ms
+/// (docs/perf/engine-resting-budget-2026-11-27). Every later solve keeps the bar above.
+pub const FIRST_STEP_HANDOVER_SWEEPS: f64 = 200.0;
+
 /// Systems of at most this many unknowns are factorized densely: below a few dozen
 /// unknowns a dense Cholesky or LU costs less than a sparse one's analysis, bookkeeping and
 /// allocations (an island of a box on the ground has 6 velocities and 12 contact rows).

@@ -16,8 +16,7 @@ use crate::linsys::BlockDiagonal;
 use crate::measure::{global_error_with, MeasureWork};
 use crate::problem::GlobalProblem;
 use crate::tuning::{
-    GAUSS_SEIDEL_FIRST_MEASURE, GAUSS_SEIDEL_HANDOVER_SWEEPS, GAUSS_SEIDEL_MEASURE_SHARE,
-    GAUSS_SEIDEL_PATIENCE,
+    GAUSS_SEIDEL_FIRST_MEASURE, GAUSS_SEIDEL_MEASURE_SHARE, GAUSS_SEIDEL_PATIENCE,
 };
 use crate::types::{Error, Status};
 use contact::ContactBlock;
@@ -204,7 +203,7 @@ impl GaussSeidel {
                     checkpoint *= 2;
                     let per_sweep = t0.elapsed().as_secs_f64() / outcome.sweeps as f64;
                     let judged = (outcome.sweeps - last_measure) as f64 * sweep_time;
-                    measured = worth_measuring(per_sweep, left, measure_time, judged);
+                    measured = worth_measuring(limits, per_sweep, left, measure_time, judged);
                 }
                 if measured {
                     let at = Instant::now();
@@ -352,32 +351,38 @@ struct Progress {
     error: f64,
 }
 
-/// Whether a checkpoint's measure is worth its time, `per_sweep` being the run's time per
+/// Whether a checkpoint's measure is worth its time under `limits`, `per_sweep` being the run's time per
 /// sweep so far (its measures included) and `left` the time to the deadline: always while
 /// the sweeps could still hand over (the measure decides it), and otherwise, when it only
 /// keeps the best iterate and sees the tolerance met, once it costs at most
 /// [`GAUSS_SEIDEL_MEASURE_SHARE`] of the time `judged` the sweeps took since the last one.
-fn worth_measuring(per_sweep: f64, left: f64, measure_time: f64, judged: f64) -> bool {
-    can_hand_over(per_sweep, left) || measure_time <= GAUSS_SEIDEL_MEASURE_SHARE * judged
+fn worth_measuring(
+    limits: SweepLimits,
+    per_sweep: f64,
+    left: f64,
+    measure_time: f64,
+    judged: f64,
+) -> bool {
+    can_hand_over(per_sweep, left, limits.handover_sweeps)
+        || measure_time <= GAUSS_SEIDEL_MEASURE_SHARE * judged
 }
 
-/// Whether `left` seconds could pay for the coupled solve after the sweeps (at least
-/// [`GAUSS_SEIDEL_HANDOVER_SWEEPS`] sweeps' worth). Time left only shrinks: once false, it
-/// stays false for the run.
-fn can_hand_over(per_sweep: f64, left: f64) -> bool {
-    left >= GAUSS_SEIDEL_HANDOVER_SWEEPS * per_sweep
+/// Whether `left` seconds could pay for the coupled solve after the sweeps: at least
+/// `handover_sweeps` sweeps' worth ([`SweepLimits::handover_sweeps`]). Time left only
+/// shrinks: once false, it stays false for the run.
+fn can_hand_over(per_sweep: f64, left: f64, handover_sweeps: f64) -> bool {
+    left >= handover_sweeps * per_sweep
 }
 
 /// Whether the sweeps should hand over to ADMM and Newton: when, at the rate of the
 /// last doubling of the sweeps, they would need more than [`GAUSS_SEIDEL_PATIENCE`]
 /// times the time spent so far to meet the tolerance, or more than the time left; and
-/// only when the time left could pay for the coupled solve (at least
-/// [`GAUSS_SEIDEL_HANDOVER_SWEEPS`] sweeps' worth). Otherwise the sweeps are the best
+/// only when the time left could pay for the coupled solve ([`can_hand_over`]). Otherwise the sweeps are the best
 /// use of the time left.
 fn hand_over(at: Progress, limits: SweepLimits) -> bool {
     let per_sweep = at.seconds / at.sweeps as f64;
     let left = limits.deadline.map_or(f64::INFINITY, seconds_until);
-    if !can_hand_over(per_sweep, left) {
+    if !can_hand_over(per_sweep, left, limits.handover_sweeps) {
         return false;
     }
     let rate = at.error / at.halved_from;
@@ -414,23 +419,63 @@ pub(crate) struct SweepLimits<'a> {
     pub deadline: Option<Instant>,
     pub max_sweeps: usize,
     pub interrupt: Option<&'a AtomicBool>,
+    /// The sweeps hand over only with this many sweeps' time left
+    /// ([`crate::tuning::GAUSS_SEIDEL_HANDOVER_SWEEPS`]; on an engine's first step,
+    /// [`crate::tuning::FIRST_STEP_HANDOVER_SWEEPS`]).
+    pub handover_sweeps: f64,
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tuning::GAUSS_SEIDEL_HANDOVER_SWEEPS;
+
+    /// Slow sweeps with 500 sweeps' time left hand over when the bar is 200 sweeps' time
+    /// (an engine's first step), and keep sweeping when it is 2 000.
+    #[test]
+    fn the_handover_bar_is_the_limits_own() {
+        let at = Progress {
+            sweeps: 8,
+            seconds: 8e-4,
+            halved_from: 1.0,
+            error: 0.9,
+        };
+        for (bar, hands_over) in [(200.0, true), (GAUSS_SEIDEL_HANDOVER_SWEEPS, false)] {
+            let limits = SweepLimits {
+                tolerance: 1e-8,
+                deadline: Instant::now().checked_add(std::time::Duration::from_millis(50)),
+                max_sweeps: usize::MAX,
+                interrupt: None,
+                handover_sweeps: bar,
+            };
+            assert_eq!(hand_over(at, limits), hands_over, "bar {bar}");
+        }
+    }
 
     /// With time for a handover every checkpoint is measured; without, a measure waits
     /// until it costs at most a tenth of the sweeps it judges.
     #[test]
     fn checkpoints_are_measured_when_worth_it() {
         let (sweep, measure) = (1e-4, 2.5e-4);
+        let limits = SweepLimits {
+            tolerance: 1e-8,
+            deadline: None,
+            max_sweeps: usize::MAX,
+            interrupt: None,
+            handover_sweeps: GAUSS_SEIDEL_HANDOVER_SWEEPS,
+        };
         let plenty = 2.0 * GAUSS_SEIDEL_HANDOVER_SWEEPS * sweep;
-        assert!(worth_measuring(sweep, plenty, measure, 4.0 * sweep));
+        assert!(worth_measuring(limits, sweep, plenty, measure, 4.0 * sweep));
         let tight = 40.0 * sweep;
         for sweeps in [4.0, 8.0, 16.0] {
-            assert!(!worth_measuring(sweep, tight, measure, sweeps * sweep));
+            assert!(!worth_measuring(
+                limits,
+                sweep,
+                tight,
+                measure,
+                sweeps * sweep
+            ));
         }
-        assert!(worth_measuring(sweep, tight, measure, 32.0 * sweep));
+        assert!(worth_measuring(limits, sweep, tight, measure, 32.0 * sweep));
     }
 }

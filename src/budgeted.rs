@@ -140,7 +140,8 @@ impl BudgetedStart {
     }
 
     /// Starts the next run of sweeps from the impulses `r` (the sweeps' velocities follow
-    /// from them, `v = M^-1 (f + H r)`; `v` is kept for the coupled solve).
+    /// from them, `v = M^-1 (f + H r)`; `v` is kept for the coupled solve, and for taking
+    /// the warm start as it is, [`GaussSeidel::take_warm_start`]).
     pub(crate) fn warm_start(&mut self, r: &[f64], v: Option<&[f64]>) -> Result<(), Error> {
         check_len("r", r, self.problem.w.len())?;
         if let Some(v) = v {

@@ -145,13 +145,14 @@ impl GaussSeidel {
     }
 
     /// Sweeps from the impulses `r0` (zero when `None`; the joint multipliers from zero),
-    /// unless the warm start `(r0, v0)` is taken as it is ([`GaussSeidel::take_warm_start`]),
-    /// until the measure meets `tolerance`, `max_sweeps` are done, the next sweep and measure would end past
-    /// `deadline` (judged by the last ones; never before [`GAUSS_SEIDEL_FIRST_MEASURE`]
-    /// sweeps), or the sweeps hand over ([`hand_over`]). The
-    /// error is measured before the first sweep, after [`GAUSS_SEIDEL_FIRST_MEASURE`]
-    /// sweeps and each doubling of them when worth it ([`worth_measuring`]), and at the
-    /// end; the best iterate measured is kept ([`GaussSeidel::best`]).
+    /// unless the warm start `(r0, v0)` is taken as it is
+    /// ([`GaussSeidel::take_warm_start`]), until the measure meets `tolerance`,
+    /// `max_sweeps` are done, the next sweep and measure would end past `deadline` (judged
+    /// by the last ones; never before [`GAUSS_SEIDEL_FIRST_MEASURE`] sweeps), or the sweeps
+    /// hand over ([`hand_over`]). The error is measured before the first sweep, after
+    /// [`GAUSS_SEIDEL_FIRST_MEASURE`] sweeps and each doubling of them when worth it
+    /// ([`worth_measuring`]), and at the end; the best iterate measured is kept
+    /// ([`GaussSeidel::best`]).
     pub(crate) fn run(
         &mut self,
         p: &GlobalProblem,
@@ -351,11 +352,12 @@ struct Progress {
     error: f64,
 }
 
-/// Whether a checkpoint's measure is worth its time under `limits`, `per_sweep` being the run's time per
-/// sweep so far (its measures included) and `left` the time to the deadline: always while
-/// the sweeps could still hand over (the measure decides it), and otherwise, when it only
-/// keeps the best iterate and sees the tolerance met, once it costs at most
-/// [`GAUSS_SEIDEL_MEASURE_SHARE`] of the time `judged` the sweeps took since the last one.
+/// Whether a checkpoint's measure is worth its time under `limits`, `per_sweep` being the
+/// run's time per sweep so far (its measures included) and `left` the time to the
+/// deadline: always while the sweeps could still hand over (the measure decides it), and
+/// otherwise, when it only keeps the best iterate and sees the tolerance met, once it
+/// costs at most [`GAUSS_SEIDEL_MEASURE_SHARE`] of the time `judged` the sweeps took since
+/// the last one.
 fn worth_measuring(
     limits: SweepLimits,
     per_sweep: f64,
@@ -377,8 +379,8 @@ fn can_hand_over(per_sweep: f64, left: f64, handover_sweeps: f64) -> bool {
 /// Whether the sweeps should hand over to ADMM and Newton: when, at the rate of the
 /// last doubling of the sweeps, they would need more than [`GAUSS_SEIDEL_PATIENCE`]
 /// times the time spent so far to meet the tolerance, or more than the time left; and
-/// only when the time left could pay for the coupled solve ([`can_hand_over`]). Otherwise the sweeps are the best
-/// use of the time left.
+/// only when the time left could pay for the coupled solve ([`can_hand_over`]).
+/// Otherwise the sweeps are the best use of the time left.
 fn hand_over(at: Progress, limits: SweepLimits) -> bool {
     let per_sweep = at.seconds / at.sweeps as f64;
     let left = limits.deadline.map_or(f64::INFINITY, seconds_until);

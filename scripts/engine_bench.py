@@ -46,16 +46,24 @@ def step_errors(trace):
         return [float(row["error"]) for row in csv.DictReader(f)]
 
 
+# Both answers at or below this error are exact to round-off (the measure is relative, and
+# its floor in double precision is about 1e-16 times the problem's conditioning): such a
+# step is a tie, not a loss, whichever of the two round-off errors is smaller.
+ROUND_OFF = 1e-14
+
+
 def compare_steps(budget_trace, peer_trace):
-    """Share of steps whose budgeted answer measures below the peer's, and the budgeted
-    run's median and 95th percentile step error."""
+    """Share of steps whose budgeted answer measures below the peer's, share of steps where
+    both are exact to round-off (a tie), and the budgeted run's median and 95th percentile
+    step error."""
     ours, peer = step_errors(budget_trace), step_errors(peer_trace)
     n = min(len(ours), len(peer))
     ranked = sorted(ours)
+    tied = sum(a <= ROUND_OFF and b <= ROUND_OFF and a >= b for a, b in zip(ours, peer))
     return {"steps_below_peer": sum(a < b for a, b in zip(ours, peer)) / n if n else None,
+            "steps_tied_at_round_off": tied / n if n else None,
             "median_error": ranked[len(ranked) // 2] if ranked else None,
             "p95_error": ranked[int(0.95 * len(ranked))] if ranked else None}
-
 
 
 def run(driver, scene, args, seconds, timeout, trace=None):
@@ -120,7 +128,8 @@ def main():
                           f"max {r.get('max_solve_ms')} ms, error {r.get('max_error')}",
                           file=sys.stderr, flush=True)
     lines = ["| scene | solver | mean step (ms) | of which setup (ms) | p99 (ms) | longest (ms) | "
-             "worst error | median / p95 step error | steps below SI100 | unsolved steps | "
+             "worst error | median / p95 step error | steps below SI100 (+ tied at round-off) | "
+             "unsolved steps | "
              "deepest penetration (m) | joint gap (m) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for (scene, name), runs in table.items():
@@ -134,7 +143,8 @@ def main():
                      f"{f('p99_solve_ms')} | "
                      f"{f('max_solve_ms')} | {f('max_error', '{:.1e}')} | "
                      f"{f('median_error', '{:.1e}')} / {f('p95_error', '{:.1e}')} | "
-                     f"{f('steps_below_peer', '{:.0%}')} | "
+                     f"{f('steps_below_peer', '{:.0%}')} "
+                     f"(+{f('steps_tied_at_round_off', '{:.0%}')}) | "
                      f"{f('unsolved_steps', '{:.0f}')} | {f('max_penetration')} | "
                      f"{f('max_joint_gap')} |")
         rows.append((scene, name, median(ok, "mean_solve_ms"), median(ok, "max_error")))

@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
 """Two builds of libcadmm side by side in the Bullet driver: for each scene and seed, Bullet's
 100 iterations (SI100) run first; then cadmm with each library (through LD_LIBRARY_PATH, the
-order alternating with the seed) at 1e-4, under SI100's mean step as the budget unless other
-driver arguments are given, each step's error compared with SI100's at the same step.
+order alternating with the seed) at 1e-4 (or --tolerance), under SI100's mean step as the
+budget unless other driver arguments are given, each step's error compared with SI100's at
+the same step.
 
     python3 ab.py --driver build-bullet/cadmm_bullet_stack --before DIR --after DIR \\
-        [--scenes wall,bin,chain,big-pyramid] [--seeds 1,2,3] [--args "--tolerance 1e-8"] \\
-        [--out ab.jsonl]
+        [--scenes wall,bin,chain,big-pyramid] [--seeds 1,2,3] [--tolerance 1e-8] \\
+        [--args "--time-limit 0.016"] [--out ab.jsonl]
 
 DIR holds a libcadmm.so.0. --before-driver and --after-driver run that side with another
 build of the driver (a change to the drop-in itself); both default to --driver. Prints one
@@ -32,6 +33,7 @@ ap.add_argument("--scenes", default="wall,bin,chain,big-pyramid")
 ap.add_argument("--seeds", default="1,2,3")
 ap.add_argument("--args", default="", help="driver arguments instead of the budget")
 ap.add_argument("--seconds", type=float, default=2.0)
+ap.add_argument("--tolerance", default="1e-4", help="cadmm's tolerance on both sides")
 ap.add_argument("--out", default="ab.jsonl")
 a = ap.parse_args()
 work = tempfile.mkdtemp(prefix="ab-traces-")  # the drivers' per-step CSVs
@@ -48,7 +50,7 @@ with open(a.out, "a") as log:
                 env_lib = os.environ.get("LD_LIBRARY_PATH")
                 os.environ["LD_LIBRARY_PATH"] = getattr(a, name)
                 driver = getattr(a, f"{name}_driver") or a.driver
-                r = eb.run(driver, scene, ["--solver", "cadmm", "--tolerance", "1e-4",
+                r = eb.run(driver, scene, ["--solver", "cadmm", "--tolerance", a.tolerance,
                                              "--seed", str(seed)] + limit, a.seconds, 900, trace)
                 if env_lib is None:
                     del os.environ["LD_LIBRARY_PATH"]
@@ -60,5 +62,6 @@ with open(a.out, "a") as log:
                 log.flush()
                 print(f"{scene} {seed} {name}: budget {budget:.3f} ms, mean {r['mean_solve_ms']:.3f},"
                       f" setup {r['mean_setup_ms']:.3f}, longest {r['max_solve_ms']:.3f},"
-                      f" below SI100 {r['steps_below_peer']:.0%}, median error"
+                      f" below SI100 {r['steps_below_peer']:.0%}"
+                      f" (+{r['steps_tied_at_round_off']:.0%} tied at round-off), median error"
                       f" {r['median_error']:.2e}, p95 {r['p95_error']:.2e}", flush=True)

@@ -34,7 +34,8 @@ pub struct Solver {
     interrupt: Option<Arc<AtomicBool>>,
     /// Solves done: a budgeted solver kept across steps may go straight to its islands.
     solves: usize,
-    /// No solve yet since the solver was built (a rebuild does not count as built).
+    /// No solve yet since the solver was built, with a time limit or without (a rebuild
+    /// does not count as built).
     first_solve: bool,
     stats: Stats,
     island_stats: Vec<Stats>,
@@ -218,8 +219,8 @@ impl Solver {
     /// (`auto` with a time limit, started by Gauss-Seidel sweeps) builds the new problem's
     /// sweeps in the memory of those it replaced the time before, so that a solver rebuilt
     /// at every step stops taking (and faulting in) fresh memory for its large arrays once
-    /// their sizes have been seen. A refused problem changes nothing. The next solve starts cold unless
-    /// [`Solver::warm_start`] is called after this.
+    /// their sizes have been seen. A refused problem changes nothing. The next solve starts
+    /// cold unless [`Solver::warm_start`] is called after this.
     pub fn rebuild(&mut self, problem: &Problem) -> Result<(), Error> {
         let t0 = Instant::now();
         let reused = match (&mut self.budgeted, problem) {
@@ -323,6 +324,7 @@ impl Solver {
     pub fn solve(&mut self) -> Result<Status, Error> {
         let t0 = Instant::now();
         self.solves += 1;
+        let first_solve = std::mem::replace(&mut self.first_solve, false);
         let Some(budgeted) = &mut self.budgeted else {
             let layout = self.layout.as_mut().expect("built unless budgeted");
             let (status, error) = layout.solve(&self.inner, t0, &mut self.solution)?;
@@ -342,7 +344,7 @@ impl Solver {
         // An engine's first step (a new solver's first solve, warm started as an engine's
         // loop does): the scene starts at rest more often than not, and every later step
         // starts from this one's answer (tuning::FIRST_STEP_HANDOVER_SWEEPS).
-        let first_step = std::mem::replace(&mut self.first_solve, false) && budgeted.warm_given();
+        let first_step = first_solve && budgeted.warm_given();
         let handover_sweeps = match first_step {
             true => FIRST_STEP_HANDOVER_SWEEPS,
             false => GAUSS_SEIDEL_HANDOVER_SWEEPS,

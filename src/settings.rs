@@ -80,7 +80,8 @@ pub struct Settings {
     /// Iteration limit. Default 100000.
     pub max_iterations: usize,
     /// Wall-clock limit of one solve, seconds. Default: none (infinity). It bounds the solve
-    /// call only, checked between steps: after every ADMM iteration, conjugate-gradient
+    /// call only, checked between steps: after every ADMM iteration (which ends the run
+    /// when the next one, as long as the last, would end past it), conjugate-gradient
     /// iteration and Newton step, and before each island. A step under way is finished,
     /// so a solve can overrun by one step: with the factorized backend, a refactorization
     /// when rho changes or a Newton factorization (tens of milliseconds on a large

@@ -134,3 +134,75 @@ fn limits_do_not_change_a_pile_solve() {
         check_same(&p, settings, &format!("pile, {backend:?}"));
     }
 }
+
+/// A splitting whose x-step takes `step` of wall-clock time and whose iterate never meets
+/// the tolerance: only the clock ends its runs.
+struct SlowSplitting {
+    step: std::time::Duration,
+}
+
+impl cadmm::admm::Splitting for SlowSplitting {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn set_rho(&mut self, _rho: f64) -> Result<(), cadmm::Error> {
+        Ok(())
+    }
+    fn x_step(&mut self, _y: &[f64], _zeta: &[f64], _rho: f64, ax: &mut [f64]) {
+        std::thread::sleep(self.step);
+        ax[0] = 1.0;
+    }
+    fn y_step(&self, _ax: &[f64], _zeta: &[f64], y: &mut [f64]) {
+        y[0] = -1.0;
+    }
+    fn c(&self) -> &[f64] {
+        &[0.0]
+    }
+    fn norm_at(&mut self, d: &[f64]) -> f64 {
+        d[0].abs()
+    }
+    fn error(&mut self, _ax: &[f64], _y: &[f64], _zeta: &[f64], _rho: f64) -> f64 {
+        1.0
+    }
+}
+
+/// A run ends before the iteration that would take it past its time limit, judged by the
+/// last one, instead of after it: iterations of 20 ms under a 50 ms limit stop after the
+/// second (40 ms), not the third (60 ms). A slower machine only ends the run sooner.
+#[test]
+fn a_run_stops_before_the_iteration_that_would_pass_its_time_limit() {
+    use cadmm::admm::{run, EngineSettings, EngineState, Variant};
+    let mut sp = SlowSplitting {
+        step: std::time::Duration::from_millis(20),
+    };
+    let mut state = EngineState {
+        y: vec![0.0],
+        zeta: vec![0.0],
+        ax: vec![0.0],
+        rho: 1.0,
+    };
+    let set = EngineSettings {
+        tolerance: 1e-8,
+        max_iterations: 100,
+        time_limit: 0.05,
+        variant: Variant::from_name("cp-N").unwrap(),
+        anderson: 0,
+        anderson_interval: 1,
+        s_update: cadmm::SUpdate::Internal,
+        eps_abs: 1e-12,
+        eps_rel: 1e-12,
+        check_every: 1,
+        trace: false,
+        rho_range: 1e6,
+        handover: None,
+    };
+    let t0 = std::time::Instant::now();
+    let out = run(&mut sp, &mut state, &set, t0).unwrap();
+    let seconds = t0.elapsed().as_secs_f64();
+    assert_eq!(out.status, Some(Status::TimeLimit));
+    assert!(
+        (1..=2).contains(&out.iterations),
+        "{} iterations of 20 ms under a 50 ms limit ({seconds} s)",
+        out.iterations
+    );
+}

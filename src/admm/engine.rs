@@ -344,6 +344,8 @@ struct Residuals {
 struct StopTest<'a> {
     set: &'a EngineSettings,
     start: Instant,
+    /// When the last iteration was measured (the loop's start before the first).
+    last_seen: Instant,
     interrupt: &'a AtomicBool,
     monitor: Option<HandoverMonitor>,
     /// The constraint space's dimension (of every process's part together).
@@ -363,6 +365,7 @@ impl<'a> StopTest<'a> {
         Self {
             set,
             start,
+            last_seen: Instant::now(),
             interrupt,
             monitor,
             dim: dim[0],
@@ -410,10 +413,24 @@ impl<'a> StopTest<'a> {
         {
             out.handed_over = true;
             out.newton_budget = left;
-        } else if out_of_time(sp, self.start, set.time_limit, self.interrupt) {
+        } else if self.out_of_time(sp) {
             out.status = Some(Status::TimeLimit);
         }
         out.status.is_some() || out.handed_over
+    }
+
+    /// Whether the next iteration, judged by the one just done, would end past the time
+    /// limit, or the run is interrupted (on any of the processes sharing the problem: they
+    /// all stop together). Judged after the iteration that crosses it, a run overran its
+    /// limit by most of an iteration: an engine's budget of a few iterations by a third.
+    fn out_of_time(&mut self, sp: &dyn Splitting) -> bool {
+        let now = Instant::now();
+        let took = now.duration_since(std::mem::replace(&mut self.last_seen, now));
+        let next_ends = (now + took).duration_since(self.start).as_secs_f64();
+        let late = next_ends > self.set.time_limit || self.interrupt.load(Ordering::Relaxed);
+        let mut late = [f64::from(u8::from(late))];
+        sp.sum_across(&mut late);
+        late[0] > 0.0
     }
 
     /// Boyd et al.'s residual test; `||A^T zeta+||` is computed only when the primal
@@ -522,13 +539,4 @@ fn norm_c(sp: &dyn Splitting) -> f64 {
     let mut c_sq = [dot(sp.c(), sp.c())];
     sp.sum_across(&mut c_sq);
     c_sq[0].sqrt()
-}
-
-/// Whether the run is past its time limit, or interrupted (on any of the processes sharing
-/// the problem: they all stop together).
-fn out_of_time(sp: &dyn Splitting, start: Instant, limit: f64, interrupt: &AtomicBool) -> bool {
-    let late = start.elapsed().as_secs_f64() > limit || interrupt.load(Ordering::Relaxed);
-    let mut late = [f64::from(u8::from(late))];
-    sp.sum_across(&mut late);
-    late[0] > 0.0
 }

@@ -56,12 +56,14 @@ with open(a.out, "a") as log:
                     del os.environ["LD_LIBRARY_PATH"]
                 else:
                     os.environ["LD_LIBRARY_PATH"] = env_lib
-                r.update(eb.compare_steps(trace, peer), label=name, scene=scene, seed=seed,
+                r.update(eb.compare_steps(trace, peer), **eb.budget_steps(trace, budget), label=name, scene=scene, seed=seed,
                          budget_ms=budget, args=limit)
                 log.write(json.dumps(r) + "\n")
                 log.flush()
                 print(f"{scene} {seed} {name}: budget {budget:.3f} ms, mean {r['mean_solve_ms']:.3f},"
-                      f" setup {r['mean_setup_ms']:.3f}, longest {r['max_solve_ms']:.3f},"
+                      f" median {r['median_solve_ms']:.3f}, setup {r['mean_setup_ms']:.3f},"
+                      f" longest {r['max_solve_ms']:.3f},"
+                      f" within 1.1x budget {r['steps_within_budget']:.0%},"
                       f" below SI100 {r['steps_below_peer']:.0%}"
                       f" (+{r['steps_tied_at_round_off']:.0%} tied at round-off), median error"
                       f" {r['median_error']:.2e}, p95 {r['p95_error']:.2e}", flush=True)

@@ -41,6 +41,17 @@ pub const GAUSS_SEIDEL_MEASURE_SHARE: f64 = 0.1;
 /// built in 120 steps) paid for islands it used once: 46 to 44%.
 pub const BUDGET_JOINTED_AFTER: usize = 2;
 
+/// A budgeted solve's sweeps solve the joints' rows together (their Delassus matrix
+/// factorized within its profile, `gauss_seidel/joint_block.rs`) when every row is an
+/// equality and that factorization costs at most about this many multiply-adds (a few
+/// tens of microseconds); otherwise one at a time. In Bullet under the 100-iteration
+/// solver's time, the steps of a 20-box chain on point-to-point joints answered below
+/// that solver went from 80 to 85% to 92 to 95% (the chain's rows: 60, about 9 000
+/// multiply-adds). Solving the equality rows together beside bounded rows (a ragdoll's
+/// joint limits) made it worse: 41 to 52% of steps below, against 24 to 37%
+/// (docs/perf/engine-budget-2026-11-28).
+pub const JOINT_BLOCK_FLOPS: f64 = 2e5;
+
 /// Gauss-Seidel sweeps go on while, at the rate of their last doubling, they would meet
 /// the tolerance within this many times the time they took so far (two more doublings at
 /// most); beyond that ADMM and Newton finish sooner (the wall at rest at 1e-4: the sweeps

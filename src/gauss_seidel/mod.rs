@@ -1,14 +1,15 @@
 //! Projected block Gauss-Seidel over the contacts (and joint rows) of a global problem
 //! whose M is block diagonal (an engine's rigid bodies): the first phase of a solve under a
 //! time budget (docs/algorithms.md §17). A sweep visits each contact once, solves its own
-//! 3 x 3 problem with every other impulse held, then each joint row, and moves the
-//! velocities by what changed; it costs one pass over H and G and factorizes nothing but
+//! 3 x 3 problem with every other impulse held, then each joint row (or all of them at
+//! once, `joint_block.rs`), and moves the velocities by what changed; it costs one pass over H and G and factorizes nothing but
 //! M's small blocks. Its error falls fast at first and slowly after (sublinearly on stacks
 //! and walls), so within an engine's milliseconds it answers far better than a few ADMM
 //! iterations can, and it hands over to ADMM and Newton once a doubling of its sweeps no
 //! longer pays.
 
 mod contact;
+mod joint_block;
 mod rows;
 
 use crate::cone::{get3, set3};
@@ -20,6 +21,7 @@ use crate::tuning::{
 };
 use crate::types::{Error, Status};
 use contact::ContactBlock;
+use joint_block::JointBlock;
 use rows::RowGroups;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -38,6 +40,10 @@ pub(crate) struct GaussSeidel {
     /// `1 / (G_j^T M^-1 G_j)` (0 for a row no velocity moves).
     joints: Option<RowGroups<1>>,
     joint_gain: Vec<f64>,
+    /// The equality rows solved together, and the rows swept one at a time (all of them
+    /// when the block's factor does not hold).
+    joint_block: JointBlock,
+    single_rows: Vec<usize>,
     /// The current iterate (`v = M^-1 (f + H r + G lambda)` up to the sweeps' round-off).
     r: Vec<f64>,
     lambda: Vec<f64>,
@@ -92,6 +98,10 @@ impl GaussSeidel {
             (Some(rows), Some(j)) => rows.refit(&j.g, &mass, false),
             (rows, j) => *rows = j.as_ref().map(|j| RowGroups::new(&j.g, &mass, false)),
         }
+        match (&self.joints, &p.joints) {
+            (Some(rows), Some(j)) => self.joint_block.refit(j, rows, &mass),
+            _ => self.joint_block = JointBlock::default(),
+        }
         let (n, m, np) = (p.n(), p.w.len(), p.n_joints());
         self.blocks.clear();
         self.blocks.resize(p.n_contacts(), ContactBlock::default());
@@ -139,6 +149,22 @@ impl GaussSeidel {
             for (k, gain) in self.joint_gain.iter_mut().enumerate() {
                 let d = rows.delassus(k)[0] + j.compliance[k];
                 *gain = if d > 0.0 { 1.0 / d } else { 0.0 };
+            }
+            self.joint_block.take_values(j, rows);
+        }
+        self.single_rows.clear();
+        let together = match self.joint_block.ready() {
+            true => self.joint_block.rows(),
+            false => &[],
+        };
+        // Both ascending: the rows not solved together, in order.
+        let mut next = together.iter().peekable();
+        for k in 0..self.joint_gain.len() {
+            match next.peek() {
+                Some(&&t) if t == k => {
+                    next.next();
+                }
+                _ => self.single_rows.push(k),
             }
         }
         Ok(())
@@ -298,7 +324,8 @@ impl GaussSeidel {
         };
         // Each row's multiplier makes its velocity `G_k^T v + b_k + c_k lambda_k` zero, the
         // others held, then is clamped into its bounds (infinite for an equality).
-        for (k, &gain) in self.joint_gain.iter().enumerate() {
+        for &k in &self.single_rows {
+            let gain = self.joint_gain[k];
             let lambda = self.lambda[k];
             let y = j.row_velocity(k, rows.apply(k, &self.v)[0], lambda);
             let step = match j.is_bounded(k) {
@@ -312,6 +339,10 @@ impl GaussSeidel {
                 self.lambda[k] += step;
                 rows.add(k, [step], &mut self.v);
             }
+        }
+        if self.joint_block.ready() {
+            self.joint_block
+                .solve(j, rows, &mut self.lambda, &mut self.v);
         }
     }
 

@@ -170,6 +170,28 @@ impl<const ROWS: usize> RowGroups<ROWS> {
         }
     }
 
+    /// Group `g`'s reach, and its `d`-th rows of `A^T` and `(M^-1 A)^T` over it.
+    pub fn rows(&self, g: usize, d: usize) -> (&[usize], &[f64], &[f64]) {
+        let (from, to) = (self.start[g], self.start[g + 1]);
+        let (len, at) = (to - from, ROWS * from + d * (to - from));
+        (
+            &self.reach[from..to],
+            &self.a_t[at..at + len],
+            &self.minv_a[at..at + len],
+        )
+    }
+
+    /// All groups' rows of `A^T` and `(M^-1 A)^T`, one after the other: group `g`'s `d`-th
+    /// row over its reach starts at `ROWS * offset(g) + d * reach length`.
+    pub fn values(&self) -> (&[f64], &[f64]) {
+        (&self.a_t, &self.minv_a)
+    }
+
+    /// Where group `g`'s values start in [`RowGroups::values`], over `ROWS`.
+    pub fn offset(&self, g: usize) -> usize {
+        self.start[g]
+    }
+
     /// `A_g^T M^-1 A_g`, `ROWS x ROWS`, row-major (in the top left of a 3 x 3 array).
     pub fn delassus(&self, g: usize) -> [f64; 9] {
         let (from, to) = (self.start[g], self.start[g + 1]);

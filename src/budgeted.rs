@@ -180,9 +180,11 @@ impl BudgetedStart {
             .run(&self.problem, r0, v0, limits, &mut self.measure)
     }
 
-    /// Whether the problem's joint rows outnumber its contact rows.
+    /// Whether the problem's joint rows outnumber its contact rows, and the sweeps take
+    /// them one at a time (they carry a correction one link a sweep; rows they solve
+    /// together are met at every sweep).
     pub(crate) fn jointed(&self) -> bool {
-        self.problem.n_joints() > 3 * self.problem.n_contacts()
+        self.problem.n_joints() > 3 * self.problem.n_contacts() && !self.sweeps.joints_together()
     }
 
     /// The warm start the last run began from (impulses, and velocities when given).

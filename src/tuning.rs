@@ -30,7 +30,8 @@ pub const GAUSS_SEIDEL_FIRST_MEASURE: usize = 4;
 /// 60 (docs/perf/engine-setup-2026-11-27).
 pub const GAUSS_SEIDEL_MEASURE_SHARE: f64 = 0.1;
 
-/// A budgeted solver whose joint rows outnumber its contact rows, once kept across this
+/// A budgeted solver whose joint rows outnumber its contact rows, and which its sweeps take
+/// one at a time (not together: [`JOINT_BLOCK_FLOPS`]), once kept across this
 /// many solves, builds its islands after the sweeps of the next one and goes straight to
 /// them from then on. Sweeps carry a correction along a chain of joints one link a sweep,
 /// where the factorized system solves the joint rows exactly. In Bullet under
@@ -44,12 +45,13 @@ pub const BUDGET_JOINTED_AFTER: usize = 2;
 /// A budgeted solve's sweeps solve the joints' rows together (their Delassus matrix
 /// factorized within its profile, `gauss_seidel/joint_block.rs`) when every row is an
 /// equality and that factorization costs at most about this many multiply-adds (a few
-/// tens of microseconds); otherwise one at a time. In Bullet under the 100-iteration
-/// solver's time, the steps of a 20-box chain on point-to-point joints answered below
-/// that solver went from 80 to 85% to 92 to 95% (the chain's rows: 60, about 9 000
-/// multiply-adds). Solving the equality rows together beside bounded rows (a ragdoll's
-/// joint limits) made it worse: 41 to 52% of steps below, against 24 to 37%
-/// (docs/perf/engine-budget-2026-11-28).
+/// tens of microseconds); otherwise one at a time. Such a solver, kept, stays on its
+/// sweeps ([`BUDGET_JOINTED_AFTER`] is for rows swept one at a time). In Bullet under the
+/// 100-iteration solver's time, the steps of a 20-box chain on point-to-point joints
+/// answered below that solver went from 80 to 85% to 93 to 96%, at median errors of 1e-11
+/// to 1e-15 (the chain's rows: 60, about 9 000 multiply-adds). Solving the equality rows
+/// together beside bounded rows (a ragdoll's joint limits) made it worse: 41 to 52% of
+/// steps below, against 24 to 37% (docs/perf/engine-budget-2026-11-28).
 pub const JOINT_BLOCK_FLOPS: f64 = 2e5;
 
 /// Gauss-Seidel sweeps go on while, at the rate of their last doubling, they would meet

@@ -366,6 +366,11 @@ impl GaussSeidel {
         error
     }
 
+    /// Whether the sweeps solve the joint rows together ([`JointBlock`]).
+    pub(crate) fn joints_together(&self) -> bool {
+        self.joint_block.ready()
+    }
+
     /// The best iterate measured in the last run: impulses, velocities and joint
     /// multipliers.
     pub(crate) fn best(&self) -> (&[f64], &[f64], &[f64]) {

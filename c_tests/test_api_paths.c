@@ -699,7 +699,7 @@ static void test_time_limit_overrun(void)
     wall = now_seconds() - t0;
     st = o.stats;
     tu_outcome_free(&o);
-    /* The limit is checked between iterations, so a solve may pass it by the iteration in
+    /* The limit is checked between iterations, so a solve may pass it by a Newton step in
        progress, the final measure and copying out: all within a few iterations' cost. The
        bound is the larger of 5 iterations (measured above, with whatever slows this run down
        included) and 0.25 s (scheduling noise on a loaded machine: other builds share the
@@ -714,8 +714,10 @@ static void test_time_limit_overrun(void)
            vg != NULL ? " (valgrind)" : "");
     CHECK_MSG(wall <= bound, "the solve took %.4f s with a limit of %.2f s: more than the bound "
               "%.4f s (one iteration %.4f s)", wall, limit, bound, one_iteration);
-    CHECK_MSG(wall >= limit && st.solve_seconds >= limit,
-              "TIME_LIMIT after %.4f s wall (%.4f s by the stats), before the limit %.2f s",
+    /* ADMM does not start an iteration that, as long as its last one, would end past the
+       limit: it may stop up to an iteration before the limit, not long before it. */
+    CHECK_MSG(wall >= 0.5 * limit && st.solve_seconds >= 0.5 * limit,
+              "TIME_LIMIT after %.4f s wall (%.4f s by the stats), long before the limit %.2f s",
               wall, st.solve_seconds, limit);
     CHECK_MSG(st.iterations >= 1 && st.iterations < 1000000000u, "%llu iterations",
               (unsigned long long)st.iterations);

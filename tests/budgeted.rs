@@ -291,6 +291,29 @@ fn a_chain_of_equality_rows_is_solved_by_its_first_sweeps() {
     assert!(error <= 1e-12, "{error}");
 }
 
+/// Redundant equality rows (a link's row given again, scaled, as a closed loop of joints
+/// gives them) make the rows' Delassus matrix singular, which the sweeps do not solve
+/// with: the solve still meets the tolerance, measured independently.
+#[test]
+fn redundant_joint_rows_are_swept_one_at_a_time() {
+    let p = particle_chain_above(1.0);
+    let joints = p.joints.as_ref().unwrap();
+    let (g, mut b) = (&joints.g, joints.b.clone());
+    let mut triplets: Vec<(usize, usize, f64)> = (0..g.ncols())
+        .flat_map(|k| g.col(k).map(move |(i, x)| (i, k, x)))
+        .collect();
+    triplets.extend(g.col(3).map(|(i, x)| (i, g.ncols(), x / 3.0)));
+    b.push(b[3] / 3.0);
+    let g = CscMatrix::from_triplets("G", g.nrows(), g.ncols() + 1, &triplets).unwrap();
+    let p = GlobalProblem { joints: None, ..p }
+        .with_joints(g, b)
+        .unwrap();
+    let mut solver = Solver::new(Problem::Global(p.clone()), budget(1e-8, 10.0)).unwrap();
+    let (status, error) = solve(&mut solver, &p);
+    assert_eq!(status, Status::Solved);
+    assert!(error <= 1e-8, "{error}");
+}
+
 /// A kept solver whose joint rows outnumber its contact rows, and which its sweeps take one
 /// at a time, sweeps its first three solves and builds its islands after the third, then
 /// goes straight to them, which solve the joint rows exactly; one whose sweeps solve the

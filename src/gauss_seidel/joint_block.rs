@@ -7,7 +7,7 @@
 //! after body along their chains, give it a narrow profile: it is factorized within that
 //! profile (an envelope Cholesky), and so cheaply on chains, trees and ragdolls.
 
-use super::rows::RowGroups;
+use super::rows::{blocks, RowGroups};
 use crate::linsys::BlockDiagonal;
 use crate::problem::Joints;
 use crate::tuning::JOINT_BLOCK_FLOPS;
@@ -45,7 +45,7 @@ impl JointBlock {
         // Beside bounded rows, equalities solved together answered worse (JOINT_BLOCK_FLOPS).
         if (0..groups.len()).all(|k| !j.is_bounded(k)) {
             self.rows
-                .extend((0..groups.len()).filter(|&k| !groups.rows(k, 0).0.is_empty()));
+                .extend((0..groups.len()).filter(|&k| !groups.reach(k).is_empty()));
         }
         let p = self.rows.len();
         // The rows on each block (a counting sort by block), and row i's first row sharing
@@ -53,7 +53,7 @@ impl JointBlock {
         self.on_start.clear();
         self.on_start.resize(mass.block_count() + 1, 0);
         for &k in &self.rows {
-            for (b, _) in blocks(groups.rows(k, 0).0, mass) {
+            for (b, _) in blocks(groups.reach(k), mass) {
                 self.on_start[b + 1] += 1;
             }
         }
@@ -70,7 +70,7 @@ impl JointBlock {
         self.first.clear();
         for (i, &k) in self.rows.iter().enumerate() {
             let mut first = i;
-            for (b, at) in blocks(groups.rows(k, 0).0, mass) {
+            for (b, at) in blocks(groups.reach(k), mass) {
                 let fill = &mut self.fill[b];
                 if *fill > self.on_start[b] {
                     first = first.min(self.on_block[self.on_start[b]].0);
@@ -154,20 +154,6 @@ impl JointBlock {
             }
         }
     }
-}
-
-/// The blocks of M a reach (whole blocks, ascending) covers, each with its place in it.
-fn blocks<'a>(
-    reach: &'a [usize],
-    mass: &'a BlockDiagonal,
-) -> impl Iterator<Item = (usize, usize)> + 'a {
-    let mut at = 0;
-    std::iter::from_fn(move || {
-        let b = mass.block_containing(*reach.get(at)?);
-        let place = at;
-        at += mass.block(b).len();
-        Some((b, place))
-    })
 }
 
 /// A pivot below this share of its row's diagonal means `S` is singular to working

@@ -2,8 +2,9 @@
 //! whose M is block diagonal (an engine's rigid bodies): the first phase of a solve under a
 //! time budget (docs/algorithms.md §17). A sweep visits each contact once, solves its own
 //! 3 x 3 problem with every other impulse held, then each joint row (or all of them at
-//! once, `joint_block.rs`), and moves the velocities by what changed; it costs one pass over H and G and factorizes nothing but
-//! M's small blocks. Its error falls fast at first and slowly after (sublinearly on stacks
+//! once, `joint_block.rs`), and moves the velocities by what changed; it costs one pass
+//! over H and G and factorizes nothing but M's small blocks (and the joints' when solved
+//! together). Its error falls fast at first and slowly after (sublinearly on stacks
 //! and walls), so within an engine's milliseconds it answers far better than a few ADMM
 //! iterations can, and it hands over to ADMM and Newton once a doubling of its sweeps no
 //! longer pays.

@@ -157,28 +157,19 @@ impl<const ROWS: usize> RowGroups<ROWS> {
                     a_t[d * len + position[i]] = x;
                 }
             }
-            let mut k = 0;
-            while k < len {
-                let b = mass.block_containing(self.reach[from + k]);
+            for (b, k) in blocks(&self.reach[from..to], mass) {
                 let size = mass.block(b).len();
                 for d in 0..rows {
                     let at = d * len + k..d * len + k + size;
                     mass.mul_block_inverse(b, &a_t[at.clone()], &mut minv_a[at]);
                 }
-                k += size;
             }
         }
     }
 
-    /// Group `g`'s reach, and its `d`-th rows of `A^T` and `(M^-1 A)^T` over it.
-    pub fn rows(&self, g: usize, d: usize) -> (&[usize], &[f64], &[f64]) {
-        let (from, to) = (self.start[g], self.start[g + 1]);
-        let (len, at) = (to - from, ROWS * from + d * (to - from));
-        (
-            &self.reach[from..to],
-            &self.a_t[at..at + len],
-            &self.minv_a[at..at + len],
-        )
+    /// The velocities group `g` reaches (whole blocks of M, ascending).
+    pub fn reach(&self, g: usize) -> &[usize] {
+        &self.reach[self.start[g]..self.start[g + 1]]
     }
 
     /// All groups' rows of `A^T` and `(M^-1 A)^T`, one after the other: group `g`'s `d`-th
@@ -241,6 +232,20 @@ impl<const ROWS: usize> RowGroups<ROWS> {
             v[i] += sum;
         }
     }
+}
+
+/// The blocks of M a reach (whole blocks, ascending) covers, each with its place in it.
+pub(super) fn blocks<'a>(
+    reach: &'a [usize],
+    mass: &'a BlockDiagonal,
+) -> impl Iterator<Item = (usize, usize)> + 'a {
+    let mut at = 0;
+    std::iter::from_fn(move || {
+        let b = mass.block_containing(*reach.get(at)?);
+        let place = at;
+        at += mass.block(b).len();
+        Some((b, place))
+    })
 }
 
 #[cfg(test)]

@@ -56,8 +56,8 @@ with open(a.out, "a") as log:
                     del os.environ["LD_LIBRARY_PATH"]
                 else:
                     os.environ["LD_LIBRARY_PATH"] = env_lib
-                r.update(eb.compare_steps(trace, peer), **eb.budget_steps(trace, budget), label=name, scene=scene, seed=seed,
-                         budget_ms=budget, args=limit)
+                r.update(eb.compare_steps(trace, peer), **eb.budget_steps(trace, budget),
+                         label=name, scene=scene, seed=seed, budget_ms=budget, args=limit)
                 log.write(json.dumps(r) + "\n")
                 log.flush()
                 print(f"{scene} {seed} {name}: budget {budget:.3f} ms, mean {r['mean_solve_ms']:.3f},"

@@ -253,7 +253,11 @@ fn apply_fixed<const ROWS: usize, const N: usize, const LANES: usize>(
     v: &[f64],
 ) -> [f64; ROWS] {
     let reach: &[usize; N] = reach.try_into().expect("a reach of N velocities");
-    let x: [f64; N] = reach.map(|i| v[i]);
+    // Gathered by a loop: `reach.map` was not inlined (a call and a copy per row group).
+    let mut x = [0.0; N];
+    for (x, &i) in x.iter_mut().zip(reach) {
+        *x = v[i];
+    }
     // Each row summed in LANES interleaved parts: a sweep waits on these sums, and one
     // chain of N dependent additions was its longest wait.
     let mut sums = [[0.0; LANES]; ROWS];

@@ -210,9 +210,10 @@ impl<const ROWS: usize> RowGroups<ROWS> {
     pub fn apply(&self, g: usize, v: &[f64]) -> [f64; ROWS] {
         let (from, to) = (self.start[g], self.start[g + 1]);
         let (reach, a_t) = (&self.reach[from..to], &self.a_t[ROWS * from..ROWS * to]);
-        // A contact between two rigid bodies reaches 12 velocities, one on a fixed body 6:
-        // at those lengths the loops unroll and each velocity is read once for all rows
-        // (with the sums split in two, a third more sweeps a second on Bullet's scenes).
+        // A group between two rigid bodies reaches 12 velocities, one between a body and a
+        // fixed one 6: at those lengths the loops unroll and each velocity is read once for
+        // all rows (with the sums split in two, a third more sweeps a second on Bullet's
+        // scenes).
         match reach.len() {
             12 => apply_fixed::<ROWS, 12, 2>(a_t, reach, v),
             6 => apply_fixed::<ROWS, 6, 2>(a_t, reach, v),
@@ -273,7 +274,7 @@ fn apply_fixed<const ROWS: usize, const N: usize, const LANES: usize>(
 }
 
 /// [`RowGroups::add`] over a reach of `N` velocities: the same sums in the same order,
-/// unrolled (a fifth of the sweeps' time on a Bullet wall's step).
+/// unrolled (a fifth more sweeps a second on a Bullet wall's step than the loop).
 #[inline(always)]
 fn add_fixed<const ROWS: usize, const N: usize>(
     minv_a: &[f64],

@@ -683,6 +683,65 @@ fn islands_carry_their_bounded_rows() {
     );
 }
 
+/// A block pushed by a motor (an equality row) beside a block with no joint row: two
+/// islands, the second a problem without joints. An update of the whole scene's joint
+/// values reaches the first and leaves the second alone (it was refused once an island's
+/// coupled solver took its share: an engine's chain hitting a box, its step refused).
+#[test]
+fn an_island_without_joint_rows_takes_the_scene_s_updates() {
+    use cadmm::NewValues;
+    let eye =
+        CscMatrix::from_triplets("I", 3, 3, &[(0, 0, 1.0), (1, 1, 1.0), (2, 2, 1.0)]).unwrap();
+    let block = || {
+        GlobalProblem::new(
+            eye.clone(),
+            eye.clone(),
+            vec![-9.81, 0.0, 0.0],
+            vec![0.0; 3],
+            vec![0.5],
+        )
+        .unwrap()
+    };
+    let g = CscMatrix::from_triplets("G", 3, 1, &[(1, 0, 1.0)]).unwrap();
+    let driven = Problem::Global(block().with_joints(g, vec![-0.3]).unwrap());
+    let scene = Problem::block_diagonal(&[driven, Problem::Global(block())]).unwrap();
+    let Problem::Global(whole) = &scene else {
+        unreachable!()
+    };
+    for newton_polish in [false, true] {
+        let settings = Settings {
+            tolerance: TOL,
+            newton_polish: Some(newton_polish),
+            ..Default::default()
+        };
+        let mut solver = Solver::new(scene.clone(), settings).unwrap();
+        assert_eq!(solver.solve().unwrap(), Status::Solved);
+        assert_eq!(solver.island_stats().len(), 2, "one island per block");
+        // The motor's target from 0.3 to 0.4 m/s; G given again as it was.
+        let joints = whole.joints.as_ref().unwrap();
+        let mut next = whole.clone();
+        next.joints.as_mut().unwrap().b = vec![-0.4];
+        solver
+            .update_values(&NewValues {
+                g: Some(joints.g.values()),
+                b: Some(&[-0.4]),
+                f: Some(&whole.f),
+                ..Default::default()
+            })
+            .unwrap_or_else(|e| panic!("newton_polish {newton_polish}: {e}"));
+        assert_eq!(solver.solve().unwrap(), Status::Solved);
+        let s = solver.solution();
+        assert!(common::global_error(&next, &s.r, &s.v, &s.lambda) <= TOL);
+        // Sliding at the target against friction mu m g: lambda = 0.4 + 4.905; the other
+        // block rests.
+        assert!(
+            (s.lambda[0] - 5.305).abs() < 1e-7 && (s.v[1] - 0.4).abs() < 1e-7,
+            "{s:?}"
+        );
+        assert!(s.v[3..].iter().all(|v| v.abs() < 1e-7), "{s:?}");
+    }
+}
+
 /// A random scene of point masses on the ground (one contact each, friction 0.3 to 0.8),
 /// pushed sideways, and joint rows between neighbours of every kind: equalities, limits
 /// `[0, inf)`, boxes `[-F, F]`, with and without compliance. Seeds vary the data.

@@ -326,7 +326,9 @@ impl ValueBuffers {
         p: &GlobalProblem,
         given: &NewValues,
     ) -> NewValues<'a> {
-        let joints = p.joints.as_ref();
+        // A part without joint rows (an island of contacts alone in a scene with joints)
+        // has a problem without joints, which takes no joint values.
+        let joints = p.joints.as_ref().filter(|_| !part.joints.is_empty());
         let mut out = NewValues::default();
         if given.m.is_some() {
             out.m = Some(gather_sized(

@@ -180,6 +180,12 @@ impl BudgetedStart {
             .run(&self.problem, r0, v0, limits, &mut self.measure)
     }
 
+    /// Takes the warm start given since the last run, if any, as a run would, for a solve
+    /// that goes straight to the islands (which were handed the same warm start).
+    pub(crate) fn skip_run(&mut self) {
+        self.used_warm = self.warm.take();
+    }
+
     /// Whether the problem's joint rows outnumber its contact rows, and the sweeps take
     /// them one at a time (they carry a correction one link a sweep; rows they solve
     /// together are met at every sweep).

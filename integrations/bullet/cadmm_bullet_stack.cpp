@@ -2,12 +2,12 @@
 // sequential impulse solver and prints one JSON line of figures.
 //
 //   cadmm_bullet_stack --scene tower|drop|mass-ratio-100|mass-ratio-1000|pyramid|
-//                               pendulum|simple-pendulum|big-pyramid|wall|bin|chain|arm|ragdoll
+//                               pendulum|simple-pendulum|big-pyramid|pyramids|wall|bin|chain|arm|ragdoll
 //                      --solver cadmm|bullet [--seconds S] [--bullet-iterations N] [--cold]
 //                      [--json] [--trace FILE.csv] [--check] [--with-hinge]
 //                      [--tolerance T] [--max-iterations N] [--check-tolerance T]
 //                      [--damping D] [--count N] [--seed N] [--time-limit S]
-//                      [--dump STEP,STEP,... --dump-dir DIR]
+//                      [--dump STEP,STEP,... --dump-dir DIR] [--max-new-solvers N]
 //
 // --count and --seed size and vary the larger scenes (stack_scenes.h; the arm's count is
 // its payload's mass in kg). --time-limit is the
@@ -28,7 +28,9 @@
 //    kMaxPenetrationExcess (scenes at rest);
 //  - (cadmm) a solve ended above its tolerance, or an answer re-measured by the driver's own
 //    copy of the error measure (solution_check.h) on the problem handed to cadmm is above the
-//    check tolerance (--check-tolerance, default the solver's --tolerance, default 1e-8).
+//    check tolerance (--check-tolerance, default the solver's --tolerance, default 1e-8);
+//  - (cadmm, with --max-new-solvers N) the drop-in built or rebuilt more than N solvers: a
+//    scene whose groups keep their contacts keeps one solver per group.
 // A refused step (cadmm_bullet::Error) exits with 2. --tolerance and --max-iterations set
 // cadmm's, --damping the bodies' linear and angular damping (Bullet's, applied before the
 // solve); CTest uses them to show that the checks fire.
@@ -92,6 +94,7 @@ struct Args {
   double damping = 0, timeLimit = 0;
   int bulletIterations = 10, maxIterations = 0;               // 0: cadmm's default
   int count = 0, seed = 1;
+  int maxNewSolvers = -1;  // -1: not checked
   std::vector<int> dump;  // steps whose groups are written as FCLib files
   bool cold = false, json = false, check = false, hinge = false;
 };
@@ -99,12 +102,12 @@ struct Args {
 [[noreturn]] void usage(const char *msg) {
   std::fprintf(stderr,
                "cadmm_bullet_stack: %s\nusage: cadmm_bullet_stack --scene tower|drop|mass-ratio-100|"
-               "mass-ratio-1000|pyramid|pendulum|simple-pendulum|big-pyramid|wall|bin|chain|arm|"
+               "mass-ratio-1000|pyramid|pendulum|simple-pendulum|big-pyramid|pyramids|wall|bin|chain|arm|"
                "ragdoll --solver cadmm|bullet "
                "[--seconds S] [--bullet-iterations N] [--cold] [--json] [--trace FILE.csv] "
                "[--check] [--with-hinge] [--tolerance T] [--max-iterations N] "
                "[--check-tolerance T] [--damping D] [--count N] [--seed N] [--time-limit S] "
-               "[--dump STEP,STEP,... --dump-dir DIR]\n",
+               "[--dump STEP,STEP,... --dump-dir DIR] [--max-new-solvers N]\n",
                msg);
   std::exit(64);
 }
@@ -133,6 +136,10 @@ Args parse(int argc, char **argv) {
     else if (k == "--seed") a.seed = std::atoi(value().c_str());
     else if (k == "--time-limit") a.timeLimit = std::atof(value().c_str());
     else if (k == "--dump-dir") a.dumpDir = value();
+    else if (k == "--max-new-solvers") {
+      a.maxNewSolvers = std::atoi(value().c_str());
+      if (a.maxNewSolvers < 0) usage("--max-new-solvers must be at least 0");
+    }
     else if (k == "--dump") {
       const std::string list = value();
       for (size_t at = 0; at < list.size();) {
@@ -395,6 +402,9 @@ int main(int argc, char **argv) {
     if (cadmm && !(maxChecked <= args.checkTolerance))
       failed.push_back("re-measured error " + shown(maxChecked) + " above the check tolerance " +
                        shown(args.checkTolerance));
+    if (cadmm && args.maxNewSolvers >= 0 && newSolvers > args.maxNewSolvers)
+      failed.push_back(std::to_string(newSolvers) + " solvers built, at most " +
+                       std::to_string(args.maxNewSolvers) + " expected");
     for (const std::string &why : failed)
       std::printf("CHECK FAILED: %s (%s, solver %s)\n", why.c_str(), args.scene.c_str(),
                   args.solver.c_str());

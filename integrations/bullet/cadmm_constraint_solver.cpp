@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <utility>
 
@@ -33,47 +34,78 @@ CadmmConstraintSolver::CadmmConstraintSolver(SolverOptions options) : options_(o
     cadmm_settings_free(settings_);
     throw Error("cadmm_bullet: invalid time limit " + std::to_string(options_.timeLimit));
   }
+  kept_.reserve(kKeptSolvers);  // a kept solver's address holds through a solveGroup
 }
 
 CadmmConstraintSolver::~CadmmConstraintSolver() {
-  cadmm_solver_free(solver_);
+  reset();
   cadmm_settings_free(settings_);
 }
 
+void CadmmConstraintSolver::prepareSolve(int, int) { ++step_; }
+
 void CadmmConstraintSolver::reset() {
-  cadmm_solver_free(solver_);
-  solver_ = nullptr;
+  for (Kept &k : kept_) cadmm_solver_free(k.solver);
+  kept_.clear();
 }
 
 SolveStats CadmmConstraintSolver::takeStats() { return std::exchange(stats_, SolveStats{}); }
 
-// Hands a time step's values to cadmm: when the sizes and sparsity patterns are those of the
-// solver's problem, the value arrays go straight to the solver (same order of the matrix
-// values; numeric refactorization only, no cadmm problem built), with the joint rows'
-// bounds and compliance while either step has some; else the solver is rebuilt for the new
-// pattern (a new solver the first time).
-void CadmmConstraintSolver::pushValues(const ContactProblem &p) {
-  if (solver_ && p.samePattern(current_)) {
+// Hands a group's values to cadmm. A kept solver whose problem has the group's sizes and
+// sparsity patterns takes the value arrays straight (same order of the matrix values;
+// numeric refactorization only, no cadmm problem built), with the joint rows' bounds and
+// compliance while either problem has some. Else a kept solver no group of this step has
+// used is rebuilt in its memory, the one nearest the group in contacts (in a scene in
+// motion, the solver this group had the step before, its memory the right size and warm);
+// a new one is built only when every kept solver serves this step, while fewer than
+// kKeptSolvers are kept, and past that the nearest is rebuilt.
+CadmmConstraintSolver::Kept &CadmmConstraintSolver::pushValues(const ContactProblem &p) {
+  ++calls_;
+  for (Kept &k : kept_) {
+    if (!p.samePattern(k.problem)) continue;
+    k.lastUsed = calls_, k.lastStep = step_;
     const bool joints = p.jointRows() > 0;  // G and b only for a problem with joints
-    check(cadmm_solver_update_values(solver_, p.M.values.data(), p.H.values.data(),
+    check(cadmm_solver_update_values(k.solver, p.M.values.data(), p.H.values.data(),
                                      joints ? p.G.values.data() : nullptr, p.f.data(), p.w.data(),
                                      joints ? p.b.data() : nullptr, p.mu.data()),
-          "cadmm_solver_update_values", solver_);
-    if (p.beyondEqualities() || current_.beyondEqualities())
-      check(cadmm_solver_update_joint_rows(solver_, p.lo.data(), p.hi.data(), p.compliance.data()),
-            "cadmm_solver_update_joint_rows", solver_);
+          "cadmm_solver_update_values", k.solver);
+    if (p.beyondEqualities() || k.problem.beyondEqualities())
+      check(cadmm_solver_update_joint_rows(k.solver, p.lo.data(), p.hi.data(), p.compliance.data()),
+            "cadmm_solver_update_joint_rows", k.solver);
     if (p.hasContactBounds())  // the same rows on the same contacts (samePattern)
-      check(cadmm_solver_update_joint_friction(solver_, p.friction.data()),
-            "cadmm_solver_update_joint_friction", solver_);
-    return;
+      check(cadmm_solver_update_joint_friction(k.solver, p.friction.data()),
+            "cadmm_solver_update_joint_friction", k.solver);
+    return k;
   }
   std::unique_ptr<cadmm_problem, void (*)(cadmm_problem *)> problem(p.make(), cadmm_problem_free);
-  if (solver_) {  // rebuilt in the memory it holds
-    check(cadmm_solver_rebuild(solver_, problem.get()), "cadmm_solver_rebuild", solver_);
-  } else {
-    check(cadmm_solver_new(problem.get(), settings_, &solver_), "cadmm_solver_new");
-  }
   ++stats_.newSolvers;
+  Kept *reused = nullptr;
+  auto gap = [&](const Kept &k) {  // how far a kept solver's sizes are from the group's
+    return std::abs(double(k.problem.contacts()) - double(p.contacts()));
+  };
+  for (const bool otherStepsOnly : {true, false}) {
+    if (!otherStepsOnly && kept_.size() < kKeptSolvers) break;
+    for (Kept &k : kept_) {
+      if (otherStepsOnly && k.lastStep == step_) continue;
+      const bool nearer = !reused || gap(k) < gap(*reused) ||
+                          (gap(k) == gap(*reused) && k.lastUsed > reused->lastUsed);
+      if (nearer) reused = &k;
+    }
+    if (reused) break;
+  }
+  if (!reused) {
+    cadmm_solver *solver = nullptr;
+    check(cadmm_solver_new(problem.get(), settings_, &solver), "cadmm_solver_new");
+    kept_.push_back(Kept{solver, {}, calls_, step_});
+    return kept_.back();
+  }
+  // The kept problem describes the solver again once the solve hands this group's over;
+  // until then it matches nothing, so a refused rebuild or solve cannot leave it matching
+  // a pattern the solver does not have.
+  reused->problem.M.clear(0);
+  check(cadmm_solver_rebuild(reused->solver, problem.get()), "cadmm_solver_rebuild", reused->solver);
+  reused->lastUsed = calls_, reused->lastStep = step_;
+  return *reused;
 }
 
 btScalar CadmmConstraintSolver::solveGroup(btCollisionObject **bodies, int numBodies,
@@ -92,13 +124,14 @@ btScalar CadmmConstraintSolver::solveGroup(btCollisionObject **bodies, int numBo
     return 0;
   }
 
-  pushValues(next_);
+  Kept &kept = pushValues(next_);
+  cadmm_solver *solver = kept.solver;
   if (options_.warmStart) {
     // Impulses from the manifold points and the bodies' velocities, i.e. the last step's
     // solution: with r alone ADMM restarts from u~ = 0 and needs ~10 iterations even at rest.
     const std::vector<double> r0 = next_.storedImpulses(), v0 = next_.bodyVelocities();
-    check(cadmm_solver_warm_start(solver_, r0.data(), v0.data()), "cadmm_solver_warm_start",
-          solver_);
+    check(cadmm_solver_warm_start(solver, r0.data(), v0.data()), "cadmm_solver_warm_start",
+          solver);
   }
   if (options_.timeLimit > 0) {
     // The budget is the whole solveGroup's: the solve gets what assembly, the values'
@@ -107,30 +140,30 @@ btScalar CadmmConstraintSolver::solveGroup(btCollisionObject **bodies, int numBo
     const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     check(cadmm_settings_set_time_limit(settings_, std::max(options_.timeLimit - spent, 1e-6)),
           "cadmm_settings_set_time_limit");
-    check(cadmm_solver_update_settings(solver_, settings_), "cadmm_solver_update_settings", solver_);
+    check(cadmm_solver_update_settings(solver, settings_), "cadmm_solver_update_settings", solver);
   }
   const auto setupEnd = std::chrono::steady_clock::now();
   cadmm_status status = 0;
-  check(cadmm_solver_solve(solver_, &status), "cadmm_solver_solve", solver_);
+  check(cadmm_solver_solve(solver, &status), "cadmm_solver_solve", solver);
 
   std::vector<double> r(3 * next_.contacts()), v(next_.velocities()), lambda(next_.jointRows());
-  check(cadmm_solver_get_solution(solver_, r.data(), nullptr, v.data()), "get_solution", solver_);
-  check(cadmm_solver_get_joint_multipliers(solver_, lambda.data(), nullptr), "get_joint_multipliers",
-        solver_);
+  check(cadmm_solver_get_solution(solver, r.data(), nullptr, v.data()), "get_solution", solver);
+  check(cadmm_solver_get_joint_multipliers(solver, lambda.data(), nullptr), "get_joint_multipliers",
+        solver);
   cadmm_stats st{};
   st.struct_size = sizeof st;
-  check(cadmm_solver_get_stats(solver_, &st), "cadmm_solver_get_stats", solver_);
+  check(cadmm_solver_get_stats(solver, &st), "cadmm_solver_get_stats", solver);
   next_.writeBack(r.data(), v.data(), lambda.data());
-  std::swap(current_, next_);
+  std::swap(kept.problem, next_);
 
   ++stats_.groups;
   stats_.iterations += st.iterations;
   stats_.error = std::max(stats_.error, st.error);
   stats_.unsolved += status != CADMM_STATUS_SOLVED;
-  stats_.contacts += current_.contacts();
+  stats_.contacts += kept.problem.contacts();
   stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   stats_.setupSeconds += std::chrono::duration<double>(setupEnd - start).count();
-  if (options_.onSolved) options_.onSolved({current_, r.data(), v.data(), lambda.data(), status});
+  if (options_.onSolved) options_.onSolved({kept.problem, r.data(), v.data(), lambda.data(), status});
   return 0;
 }
 

@@ -91,7 +91,7 @@ struct SolveStats {
   double seconds = 0;       // wall time in solveGroup: assembly, factorization, solve, write-back
   double setupSeconds = 0;  // the part before the solve: assembly, solver built or updated, warm start
   int unsolved = 0;         // solves that ended above the tolerance (last iterate written back)
-  int newSolvers = 0;       // solvers built because the pattern changed
+  int newSolvers = 0;       // solvers built or rebuilt because no kept one had the pattern
   size_t contacts = 0;
 };
 
@@ -106,19 +106,34 @@ class CadmmConstraintSolver : public btConstraintSolver {
                       int numManifolds, btTypedConstraint **constraints, int numConstraints,
                       const btContactSolverInfo &info, btIDebugDraw *debugDrawer,
                       btDispatcher *dispatcher) override;
-  void reset() override;  // drops the cached cadmm solver
+  void prepareSolve(int numBodies, int numManifolds) override;  // a new step begins
+  void reset() override;  // drops the kept cadmm solvers
   // None of Bullet's solver types; btDiscreteDynamicsWorld does not branch on it.
   btConstraintSolverType getSolverType() const override { return btConstraintSolverType(1 << 8); }
 
   SolveStats takeStats();
 
  private:
-  void pushValues(const ContactProblem &p);
+  // A cadmm solver and the problem it was last given.
+  struct Kept {
+    cadmm_solver *solver = nullptr;
+    ContactProblem problem;
+    uint64_t lastUsed = 0;  // the solveGroup call that last used it
+    uint64_t lastStep = 0;  // the step (prepareSolve) that last used it
+  };
+  // Bullet hands a step's islands to solveGroup in batches (islands gathered until a batch
+  // passes m_minimumSolverBatchSize manifolds and constraints), so a solver is kept per
+  // group pattern, not one per world: a group whose pattern is unchanged since the last
+  // step finds its solver however many other groups were solved between.
+  static constexpr size_t kKeptSolvers = 8;
+
+  Kept &pushValues(const ContactProblem &p);
 
   SolverOptions options_;
   cadmm_settings *settings_ = nullptr;
-  cadmm_solver *solver_ = nullptr;
-  ContactProblem next_, current_;  // current_: the problem solver_ was last given
+  std::vector<Kept> kept_;  // at most kKeptSolvers
+  uint64_t calls_ = 0, step_ = 0;
+  ContactProblem next_;
   SolveStats stats_;
 };
 

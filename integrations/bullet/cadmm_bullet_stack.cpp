@@ -6,12 +6,13 @@
 //                      --solver cadmm|bullet [--seconds S] [--bullet-iterations N] [--cold]
 //                      [--json] [--trace FILE.csv] [--check] [--with-hinge]
 //                      [--tolerance T] [--max-iterations N] [--check-tolerance T]
-//                      [--damping D] [--count N] [--seed N] [--time-limit S]
+//                      [--damping D] [--count N] [--seed N] [--time-limit S] [--step-time-limit S]
 //                      [--dump STEP,STEP,... --dump-dir DIR] [--max-new-solvers N]
 //
 // --count and --seed size and vary the larger scenes (stack_scenes.h; the arm's count is
 // its payload's mass in kg). --time-limit is the
-// cadmm drop-in's budget per solveGroup (SolverOptions::timeLimit). --dump writes the
+// cadmm drop-in's budget per solveGroup (SolverOptions::timeLimit), --step-time-limit its budget
+// per step (SolverOptions::stepTimeLimit). --dump writes the
 // problem of every group solved at the given steps to DIR/SCENE-stepN-groupK.hdf5 (FCLib;
 // needs a cadmm built with CADMM_WITH_FCLIB), with either solver.
 //
@@ -91,7 +92,7 @@ const double kAmplitudeSlack = 0.01;
 struct Args {
   std::string scene = "tower", solver = "cadmm", trace, dumpDir;
   double seconds = 5, tolerance = 1e-8, checkTolerance = 0;  // 0: the solver's tolerance
-  double damping = 0, timeLimit = 0;
+  double damping = 0, timeLimit = 0, stepTimeLimit = 0;
   int bulletIterations = 10, maxIterations = 0;               // 0: cadmm's default
   int count = 0, seed = 1;
   int maxNewSolvers = -1;  // -1: not checked
@@ -107,6 +108,7 @@ struct Args {
                "[--seconds S] [--bullet-iterations N] [--cold] [--json] [--trace FILE.csv] "
                "[--check] [--with-hinge] [--tolerance T] [--max-iterations N] "
                "[--check-tolerance T] [--damping D] [--count N] [--seed N] [--time-limit S] "
+               "[--step-time-limit S] "
                "[--dump STEP,STEP,... --dump-dir DIR] [--max-new-solvers N]\n",
                msg);
   std::exit(64);
@@ -135,6 +137,7 @@ Args parse(int argc, char **argv) {
     else if (k == "--count") a.count = std::atoi(value().c_str());
     else if (k == "--seed") a.seed = std::atoi(value().c_str());
     else if (k == "--time-limit") a.timeLimit = std::atof(value().c_str());
+    else if (k == "--step-time-limit") a.stepTimeLimit = std::atof(value().c_str());
     else if (k == "--dump-dir") a.dumpDir = value();
     else if (k == "--max-new-solvers") {
       a.maxNewSolvers = std::atoi(value().c_str());
@@ -164,6 +167,7 @@ Args parse(int argc, char **argv) {
   if (a.checkTolerance == 0) a.checkTolerance = a.tolerance;
   if (a.count < 0) usage("--count must be at least 1");
   if (!(a.timeLimit >= 0)) usage("--time-limit must be positive (0: none)");
+  if (!(a.stepTimeLimit >= 0)) usage("--step-time-limit must be positive (0: none)");
   if (!a.dump.empty() && a.dumpDir.empty()) usage("--dump needs --dump-dir");
   return a;
 }
@@ -223,6 +227,7 @@ int main(int argc, char **argv) {
     o.tolerance = args.tolerance;
     o.maxIterations = uint32_t(args.maxIterations);
     o.timeLimit = args.timeLimit;
+    o.stepTimeLimit = args.stepTimeLimit;
     o.onSolved = [&maxChecked, &dump](const SolvedGroup &g) {
       const double e = remeasureError(g.problem, g.r, g.v, g.lambda);
       if (!(e <= maxChecked)) maxChecked = e;

@@ -29,10 +29,20 @@ CadmmConstraintSolver::CadmmConstraintSolver(SolverOptions options) : options_(o
     cadmm_settings_free(settings_);
     throw Error("cadmm_bullet: invalid iteration limit " + std::to_string(options_.maxIterations));
   }
-  if (options_.timeLimit > 0 &&
-      cadmm_settings_set_time_limit(settings_, options_.timeLimit) != CADMM_OK) {
+  if (!(options_.timeLimit >= 0) || !(options_.stepTimeLimit >= 0)) {
     cadmm_settings_free(settings_);
-    throw Error("cadmm_bullet: invalid time limit " + std::to_string(options_.timeLimit));
+    throw Error("cadmm_bullet: invalid time limit " + std::to_string(options_.timeLimit) +
+                " or step time limit " + std::to_string(options_.stepTimeLimit) +
+                " (seconds, 0 for none)");
+  }
+  // A solver built with a time limit starts its solves with sweeps (a budget's solver);
+  // each solve's own limit is set in solveGroup.
+  const double limit = options_.timeLimit > 0 && options_.stepTimeLimit > 0
+                           ? std::min(options_.timeLimit, options_.stepTimeLimit)
+                           : std::max(options_.timeLimit, options_.stepTimeLimit);
+  if (limit > 0 && cadmm_settings_set_time_limit(settings_, limit) != CADMM_OK) {
+    cadmm_settings_free(settings_);
+    throw Error("cadmm_bullet: invalid time limit " + std::to_string(limit));
   }
   kept_.reserve(kKeptSolvers);  // a kept solver's address holds through a solveGroup
 }
@@ -42,7 +52,23 @@ CadmmConstraintSolver::~CadmmConstraintSolver() {
   cadmm_settings_free(settings_);
 }
 
-void CadmmConstraintSolver::prepareSolve(int, int) { ++step_; }
+void CadmmConstraintSolver::prepareSolve(int, int) {
+  ++step_;
+  stepStart_ = std::chrono::steady_clock::now();
+  lastStepRows_ = std::exchange(stepRows_, 0);
+}
+
+// What this call may spend of the step's budget, from now: the step's time left in
+// proportion to the call's rows against those still to come, as the step before had them
+// (all of it on a first step, or a call no prepareSolve began).
+double CadmmConstraintSolver::stepShare(size_t rows, double spentInCall) const {
+  if (step_ == 0) return options_.stepTimeLimit - spentInCall;
+  const double left =
+      options_.stepTimeLimit -
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - stepStart_).count();
+  const size_t ahead = lastStepRows_ > stepRows_ ? lastStepRows_ - stepRows_ : 0;
+  return left * double(rows) / double(std::max(rows, ahead));
+}
 
 void CadmmConstraintSolver::reset() {
   for (Kept &k : kept_) cadmm_solver_free(k.solver);
@@ -133,15 +159,19 @@ btScalar CadmmConstraintSolver::solveGroup(btCollisionObject **bodies, int numBo
     check(cadmm_solver_warm_start(solver, r0.data(), v0.data()), "cadmm_solver_warm_start",
           solver);
   }
-  if (options_.timeLimit > 0) {
+  const size_t rows = 3 * next_.contacts() + next_.jointRows();
+  if (options_.timeLimit > 0 || options_.stepTimeLimit > 0) {
     // The budget is the whole solveGroup's: the solve gets what assembly, the values'
     // factorization and the warm start left of it (a little at least, so that it measures
     // the warm start and hands back its best iterate).
     const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    check(cadmm_settings_set_time_limit(settings_, std::max(options_.timeLimit - spent, 1e-6)),
+    double budget = options_.timeLimit > 0 ? options_.timeLimit - spent : INFINITY;
+    if (options_.stepTimeLimit > 0) budget = std::min(budget, stepShare(rows, spent));
+    check(cadmm_settings_set_time_limit(settings_, std::max(budget, 1e-6)),
           "cadmm_settings_set_time_limit");
     check(cadmm_solver_update_settings(solver, settings_), "cadmm_solver_update_settings", solver);
   }
+  stepRows_ += rows;
   const auto setupEnd = std::chrono::steady_clock::now();
   cadmm_status status = 0;
   check(cadmm_solver_solve(solver, &status), "cadmm_solver_solve", solver);

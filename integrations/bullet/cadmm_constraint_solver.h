@@ -56,6 +56,7 @@
 
 #include "contact_problem.h"
 
+#include <chrono>
 #include <functional>
 
 namespace cadmm_bullet {
@@ -78,6 +79,12 @@ struct SolverOptions {
   // limit set to what assembly and factorization left of it. A solve stopped by it hands
   // back its best measured iterate, counted in `unsolved`.
   double timeLimit = 0;
+  // Wall-clock budget of a whole step in seconds (0: none), for Bullet's several solveGroup
+  // calls a step (prepareSolve begins a step; without it each call is a step). Each call
+  // gets what the step has left in proportion to its rows (3 per contact, 1 per joint row)
+  // against the rows the step had still to come the step before; with timeLimit too, the
+  // smaller of the two.
+  double stepTimeLimit = 0;
   // Called after each group's solve, once its answer is written back: lets a caller check
   // the answer on its own (the driver's --check re-measures it).
   std::function<void(const SolvedGroup &)> onSolved;
@@ -128,11 +135,16 @@ class CadmmConstraintSolver : public btConstraintSolver {
   static constexpr size_t kKeptSolvers = 8;
 
   Kept &pushValues(const ContactProblem &p);
+  double stepShare(size_t rows, double spentInCall) const;
 
   SolverOptions options_;
   cadmm_settings *settings_ = nullptr;
   std::vector<Kept> kept_;  // at most kKeptSolvers
   uint64_t calls_ = 0, step_ = 0;
+  // The step's start (prepareSolve) and rows: those solved so far this step, and the
+  // step before's in all, which shares stepTimeLimit among the calls.
+  std::chrono::steady_clock::time_point stepStart_;
+  size_t stepRows_ = 0, lastStepRows_ = 0;
   ContactProblem next_;
   SolveStats stats_;
 };

@@ -7,7 +7,7 @@ the same step.
 
     python3 ab.py --driver build-bullet/cadmm_bullet_stack --before DIR --after DIR \\
         [--scenes wall,bin,chain,big-pyramid] [--seeds 1,2,3] [--tolerance 1e-8] \\
-        [--args "--time-limit 0.016"] [--out ab.jsonl]
+        [--args "--time-limit 0.016"] [--budget-option=--step-time-limit] [--out ab.jsonl]
 
 DIR holds a libcadmm.so.0. --before-driver and --after-driver run that side with another
 build of the driver (a change to the drop-in itself); both default to --driver. Prints one
@@ -32,6 +32,8 @@ ap.add_argument("--after-driver", help="the driver for the after side (default -
 ap.add_argument("--scenes", default="wall,bin,chain,big-pyramid")
 ap.add_argument("--seeds", default="1,2,3")
 ap.add_argument("--args", default="", help="driver arguments instead of the budget")
+ap.add_argument("--budget-option", default="--time-limit",
+                help="the driver option the budget is given by (--step-time-limit: per step)")
 ap.add_argument("--seconds", type=float, default=2.0)
 ap.add_argument("--tolerance", default="1e-4", help="cadmm's tolerance on both sides")
 ap.add_argument("--out", default="ab.jsonl")
@@ -44,7 +46,7 @@ with open(a.out, "a") as log:
             si100 = eb.run(a.driver, scene, ["--solver", "bullet", "--bullet-iterations", "100",
                                              "--seed", str(seed)], a.seconds, 900, peer)
             budget = si100["mean_solve_ms"]
-            limit = a.args.split() or ["--time-limit", f"{budget / 1e3:.6g}"]
+            limit = a.args.split() or [a.budget_option, f"{budget / 1e3:.6g}"]
             for name in ("before", "after") if seed % 2 else ("after", "before"):
                 trace = os.path.join(work, f"{scene}-{seed}-{name}.csv")
                 env_lib = os.environ.get("LD_LIBRARY_PATH")

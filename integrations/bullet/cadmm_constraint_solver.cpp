@@ -29,10 +29,11 @@ CadmmConstraintSolver::CadmmConstraintSolver(SolverOptions options) : options_(o
     cadmm_settings_free(settings_);
     throw Error("cadmm_bullet: invalid iteration limit " + std::to_string(options_.maxIterations));
   }
-  if (!(options_.timeLimit >= 0) || !(options_.stepTimeLimit >= 0)) {
+  for (const auto &[name, value] : {std::pair{"time limit", options_.timeLimit},
+                                     std::pair{"step time limit", options_.stepTimeLimit}}) {
+    if (value >= 0) continue;  // NaN fails too
     cadmm_settings_free(settings_);
-    throw Error("cadmm_bullet: invalid time limit " + std::to_string(options_.timeLimit) +
-                " or step time limit " + std::to_string(options_.stepTimeLimit) +
+    throw Error(std::string("cadmm_bullet: invalid ") + name + " " + std::to_string(value) +
                 " (seconds, 0 for none)");
   }
   // A solver built with a time limit starts its solves with sweeps (a budget's solver);

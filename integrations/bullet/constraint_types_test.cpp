@@ -42,6 +42,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <vector>
 
 using namespace cadmm_bullet;
@@ -707,6 +708,32 @@ void refusals() {
     run.add(std::make_unique<btPoint2PointConstraint>(*b, btVector3(-0.5, 0, 0)))
         ->m_useSolveConstraintObsolete = true;
   });
+  // Options the drop-in refuses when it is built, naming the option.
+  auto with = [](auto set) {
+    SolverOptions o;
+    set(o);
+    return o;
+  };
+  const std::vector<std::tuple<std::string, SolverOptions, std::string>> options = {
+      {"negative-time-limit", with([](SolverOptions &o) { o.timeLimit = -1; }),
+       "invalid time limit"},
+      {"negative-step-limit", with([](SolverOptions &o) { o.stepTimeLimit = -0.01; }),
+       "invalid step time limit"},
+      {"nan-step-limit", with([](SolverOptions &o) { o.stepTimeLimit = NAN; }),
+       "invalid step time limit"},
+      {"zero-tolerance", with([](SolverOptions &o) { o.tolerance = 0; }), "invalid tolerance"},
+  };
+  for (const auto &[name, o, what] : options) {
+    try {
+      CadmmConstraintSolver solver(o);
+      fail(name, "not refused (expected a message with \"" + what + "\")");
+    } catch (const Error &e) {
+      if (std::strstr(e.what(), what.c_str()))
+        std::printf("%-20s refused: %s\n", name.c_str(), e.what());
+      else
+        fail(name, std::string("refused with another message: ") + e.what());
+    }
+  }
 }
 
 // The global CFM without contacts: the first row of each constraint is compliant (as in

@@ -183,6 +183,42 @@ impl CoupledSolver {
         self.ready_or_undo(taken)
     }
 
+    /// Whether `next` has this solver's problem's form, sizes and sparsity patterns: then
+    /// [`CoupledSolver::update`] takes it.
+    pub(crate) fn fits(&self, next: &Problem) -> bool {
+        match (self.form.problem(), next) {
+            (ProblemRef::Global(a), Problem::Global(b)) => a.check_successor(b).is_ok(),
+            (ProblemRef::Local(a), Problem::Local(b)) => a.check_successor(b).is_ok(),
+            _ => false,
+        }
+    }
+
+    /// [`CoupledSolver::update`] for a solver taken over by another problem of the same
+    /// patterns (an island kept by a rebuild): its first rho is picked again from the new
+    /// values, as a new solver's would be, so that it answers as one.
+    pub(crate) fn take_over(&mut self, problem: Problem) -> Result<(), Error> {
+        let rho0 = initial_rho(self.resolved.initial_rho, &problem)?;
+        let before = std::mem::replace(&mut self.rho0, rho0);
+        match self.update(problem) {
+            Ok(()) => {
+                self.state.rho = rho0;
+                Ok(())
+            }
+            Err(e) => {
+                self.rho0 = before;
+                Err(e)
+            }
+        }
+    }
+
+    /// A copy of the problem as the solver holds it.
+    pub(crate) fn problem_owned(&self) -> Problem {
+        match self.form.problem() {
+            ProblemRef::Global(g) => Problem::Global(g.clone()),
+            ProblemRef::Local(l) => Problem::Local(l.clone()),
+        }
+    }
+
     /// Takes new values for the problem on the same sizes and sparsity patterns (the next
     /// time step of a scene), without building a problem: they are scattered into the kept
     /// system matrix through maps built once, then one numeric refactorization (deferred to

@@ -9,7 +9,8 @@ use crate::budgeted::BudgetedStart;
 use crate::coupled::{CoupledSolver, NewtonFirst};
 use crate::problem::{NewValues, Problem};
 use crate::scene::islands::{partition_global, partition_local};
-use crate::scene::Scene;
+use crate::scene::offered::{Offer, Offered};
+use crate::scene::{Scene, ScenePlan};
 use crate::settings::{Resolved, Settings};
 use crate::tuning::{
     BUDGET_JOINTED_AFTER, FIRST_STEP_HANDOVER_SWEEPS, GAUSS_SEIDEL_HANDOVER_SWEEPS,
@@ -47,6 +48,13 @@ pub struct Solver {
     solution: Solution,
 }
 
+/// A layout planned, before the offered solvers it takes are handed over.
+enum Planned {
+    Split(ScenePlan),
+    /// An offered solver's index, or a new solver; and the number of islands.
+    Whole(Result<usize, Box<CoupledSolver>>, usize),
+}
+
 /// How the problem is held.
 enum Layout {
     /// As one coupled problem (islands off, or one island).
@@ -57,27 +65,93 @@ enum Layout {
 
 impl Layout {
     /// Finds the contact islands (unless switched off), picks each island's first rho and
-    /// factorizes; also returns the number of islands.
-    fn new(problem: Problem, settings: &Settings) -> Result<(Self, usize), Error> {
+    /// factorizes; also returns the number of islands. An island whose sub-problem fits a
+    /// coupled solver of `replaced` (the layout of the problem before, in a rebuild) takes
+    /// that solver with its values instead (`scene::offered`). `replaced` is used up, or
+    /// left as it was when the problem is refused.
+    fn new(
+        problem: Problem,
+        settings: &Settings,
+        replaced: &mut Option<Layout>,
+    ) -> Result<(Self, usize), Error> {
         let partition = match (&problem, settings.islands) {
             (_, false) => None,
             (Problem::Global(g), true) => Some(partition_global(g)),
             (Problem::Local(l), true) => Some(partition_local(l)),
         };
-        Ok(match partition {
-            Some(p) if !p.is_whole() => {
-                let split = Scene::new(problem, p, settings)?;
+        let split = partition.filter(|p| !p.is_whole());
+        let mut offered = match replaced.as_mut() {
+            Some(layout) => Offered::new(layout.coupled_to_offer()),
+            None => Offered::none(),
+        };
+        let planned = match split {
+            Some(p) => Scene::plan(problem, p, settings, &mut offered).map(Planned::Split),
+            None => {
+                let islands = usize::from(problem.n_contacts() > 0);
+                Self::whole(problem, settings, &mut offered).map(|s| Planned::Whole(s, islands))
+            }
+        };
+        let planned = match planned {
+            Ok(planned) => planned,
+            Err(e) => {
+                offered.give_back();
+                return Err(e);
+            }
+        };
+        let reused = offered.taken().count() > 0;
+        drop(offered);
+        // The replaced layout goes: its solvers that were taken into the new one.
+        let mut solvers = match (reused, replaced.take()) {
+            (true, Some(layout)) => layout.into_offered(),
+            _ => Vec::new(),
+        };
+        Ok(match planned {
+            Planned::Split(plan) => {
+                let split = Scene::new(plan, settings, &mut solvers);
                 let n = split.n_islands;
                 (Layout::Split(Box::new(split)), n)
             }
-            _ => {
-                let islands = usize::from(problem.n_contacts() > 0);
-                let mut solver =
-                    CoupledSolver::new(problem, settings.clone(), NewtonFirst::IfSmall)?;
+            Planned::Whole(Ok(k), islands) => {
+                let mut solver = solvers[k].take().expect("taken once");
+                solver.update_settings(settings);
                 solver.set_linear_threads(settings.threads);
-                (Layout::Whole(Box::new(solver)), islands)
+                (Layout::Whole(solver), islands)
             }
+            Planned::Whole(Err(solver), islands) => (Layout::Whole(solver), islands),
         })
+    }
+
+    /// The solver of a problem solved whole: an offered one it fits (its index), or a new
+    /// one.
+    fn whole(
+        problem: Problem,
+        settings: &Settings,
+        offered: &mut Offered,
+    ) -> Result<Result<usize, Box<CoupledSolver>>, Error> {
+        let problem = match offered.take(problem)? {
+            Offer::Taken(k) => return Ok(Ok(k)),
+            Offer::NoneFits(problem) => problem,
+        };
+        let mut solver = CoupledSolver::new(problem, settings.clone(), NewtonFirst::IfSmall)?;
+        solver.set_linear_threads(settings.threads);
+        Ok(Err(Box::new(solver)))
+    }
+
+    /// Its coupled solvers, for a rebuild to offer (in the order of
+    /// [`Layout::into_offered`]).
+    fn coupled_to_offer(&mut self) -> Vec<&mut CoupledSolver> {
+        match self {
+            Layout::Whole(s) => vec![s],
+            Layout::Split(split) => split.coupled_to_offer(),
+        }
+    }
+
+    /// [`Layout::coupled_to_offer`], taken.
+    fn into_offered(self) -> Vec<Option<Box<CoupledSolver>>> {
+        match self {
+            Layout::Whole(s) => vec![Some(s)],
+            Layout::Split(split) => split.into_offered(),
+        }
     }
 
     fn set_interrupt(&mut self, flag: &Arc<AtomicBool>) {
@@ -136,6 +210,16 @@ impl Solver {
     /// island's first rho and factorizes (symbolic analysis and first numeric
     /// factorization).
     pub fn new(problem: Problem, settings: Settings) -> Result<Self, Error> {
+        Self::replacing(problem, settings, &mut None)
+    }
+
+    /// [`Solver::new`], whose islands may take the coupled solvers of `replaced` (see
+    /// [`Layout::new`]).
+    fn replacing(
+        problem: Problem,
+        settings: Settings,
+        replaced: &mut Option<Layout>,
+    ) -> Result<Self, Error> {
         let t0 = Instant::now();
         settings.validate()?;
         problem.validate()?;
@@ -154,7 +238,7 @@ impl Solver {
                 (None, Some(Box::new(start)), islands)
             }
             None => {
-                let (layout, n) = Layout::new(problem, &settings)?;
+                let (layout, n) = Layout::new(problem, &settings, replaced)?;
                 (Some(layout), None, n)
             }
         };
@@ -219,7 +303,11 @@ impl Solver {
 
     /// Replaces the problem by one of any sizes and patterns (the next time step of a scene
     /// whose contacts changed), keeping the settings and the interrupt: the solver becomes
-    /// what [`Solver::new`] builds for `problem` with its settings. A budgeted solver
+    /// what [`Solver::new`] builds for `problem` with its settings, except that an island
+    /// whose sub-problem has the sizes and sparsity patterns of one of the replaced
+    /// solver's islands (a resting stack beside the contacts that changed) takes that
+    /// island's solver with its new values: numeric refactorization only, as
+    /// [`Solver::update`] does, where a new one would analyse and factorize. A budgeted solver
     /// (`auto` with a time limit, started by Gauss-Seidel sweeps) builds the new problem's
     /// sweeps in the memory of those it replaced the time before, so that a solver rebuilt
     /// at every step stops taking (and faulting in) fresh memory for its large arrays once
@@ -235,7 +323,16 @@ impl Solver {
             _ => false,
         };
         if !reused {
-            let mut fresh = Self::new(problem.clone(), self.settings.clone())?;
+            // Islands whose sub-problems did not change keep their solvers.
+            let mut replaced = self.layout.take();
+            let built = Self::replacing(problem.clone(), self.settings.clone(), &mut replaced);
+            let mut fresh = match built {
+                Ok(fresh) => fresh,
+                Err(e) => {
+                    self.layout = replaced;
+                    return Err(e);
+                }
+            };
             if let Some(flag) = &self.interrupt {
                 fresh.set_interrupt(flag.clone());
             }
@@ -278,7 +375,7 @@ impl Solver {
     /// Builds the islands of `problem` (a budgeted start's, when the sweeps need them),
     /// with the interrupt if one was set.
     fn build(&self, problem: Problem) -> Result<(Layout, usize), Error> {
-        let (mut layout, islands) = Layout::new(problem, &self.inner)?;
+        let (mut layout, islands) = Layout::new(problem, &self.inner, &mut None)?;
         if let Some(flag) = &self.interrupt {
             layout.set_interrupt(flag);
         }
@@ -561,5 +658,84 @@ impl Solver {
             Some(Layout::Split(split)) => split.slowest.map_or(&[][..], |k| &split.parts[k].trace),
             None => &[],
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::csc::CscMatrix;
+    use crate::problem::GlobalProblem;
+
+    /// A body of 6 velocities and mass matrix `mass I` on `contacts` contacts, pressed into
+    /// them by `f`, with H's entries drawn from `seed` (every entry stored: the pattern is
+    /// the sizes').
+    fn pile(contacts: usize, seed: u64, f: f64, mass: f64) -> Problem {
+        let mut s = seed;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let triplets: Vec<_> = (0..3 * contacts)
+            .flat_map(|j| (0..6).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                let normal_up = i == 1 && j % 3 == 0;
+                (i, j, if normal_up { 1.0 } else { 0.2 * next() })
+            })
+            .collect();
+        let h = CscMatrix::from_triplets("H", 6, 3 * contacts, &triplets).unwrap();
+        let mut force = vec![0.0; 6];
+        force[1] = f;
+        let m =
+            CscMatrix::from_triplets("M", 6, 6, &(0..6).map(|i| (i, i, mass)).collect::<Vec<_>>())
+                .unwrap();
+        let p =
+            GlobalProblem::new(m, h, force, vec![0.0; 3 * contacts], vec![0.5; contacts]).unwrap();
+        Problem::Global(p)
+    }
+
+    fn addresses(solver: &mut Solver) -> Vec<*const CoupledSolver> {
+        let layout = solver.layout.as_mut().expect("built");
+        let solvers = layout.coupled_to_offer();
+        solvers.into_iter().map(|s| s as *const _).collect()
+    }
+
+    /// A rebuild for a scene whose first island kept its sub-problem's pattern (new values)
+    /// and whose second changed keeps the first island's coupled solver and builds the
+    /// second's; both answers meet the tolerance.
+    #[test]
+    fn a_rebuild_keeps_the_solver_of_an_island_whose_pattern_stayed() {
+        let settings = Settings {
+            newton_polish: Some(false), // coupled solvers for the small islands too
+            ..Settings::default()
+        };
+        let scene =
+            Problem::block_diagonal(&[pile(4, 1, -1.0, 1.0), pile(4, 2, -1.0, 1.0)]).unwrap();
+        let mut solver = Solver::new(scene, settings).unwrap();
+        assert_eq!(solver.solve().unwrap(), Status::Solved);
+        let before = addresses(&mut solver);
+        assert_eq!(before.len(), 2);
+        let next =
+            Problem::block_diagonal(&[pile(4, 1, -1.5, 2.0), pile(5, 3, -1.0, 1.0)]).unwrap();
+        solver.rebuild(&next).unwrap();
+        let after = addresses(&mut solver);
+        assert_eq!(after.len(), 2);
+        assert_eq!(after[0], before[0], "the first island kept its solver");
+        assert_ne!(after[1], before[1], "the second island's changed");
+        assert_eq!(solver.solve().unwrap(), Status::Solved);
+        assert!(solver.stats().error <= solver.settings().tolerance);
+        let answer = solver.solution().clone();
+        // A rebuild the second island refuses (its M is not positive definite), after the
+        // first took its solver with new values: the solver is left as it was, and answers
+        // as it did.
+        let refused =
+            Problem::block_diagonal(&[pile(4, 1, -2.0, 3.0), pile(6, 4, -1.0, -1.0)]).unwrap();
+        assert!(solver.rebuild(&refused).is_err());
+        assert_eq!(addresses(&mut solver), after);
+        assert_eq!(solver.solve().unwrap(), Status::Solved);
+        assert_eq!(solver.solution().r, answer.r);
+        assert_eq!(solver.solution().v, answer.v);
     }
 }

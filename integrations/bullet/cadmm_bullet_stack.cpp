@@ -2,17 +2,20 @@
 // sequential impulse solver and prints one JSON line of figures.
 //
 //   cadmm_bullet_stack --scene tower|drop|mass-ratio-100|mass-ratio-1000|pyramid|
-//                               pendulum|simple-pendulum|big-pyramid|pyramids|wall|bin|chain|arm|ragdoll
+//                               pendulum|simple-pendulum|big-pyramid|pyramids|pyramids-hit|wall|bin|chain|arm|ragdoll
 //                      --solver cadmm|bullet [--seconds S] [--bullet-iterations N] [--cold]
 //                      [--json] [--trace FILE.csv] [--check] [--with-hinge]
 //                      [--tolerance T] [--max-iterations N] [--check-tolerance T]
 //                      [--damping D] [--count N] [--seed N] [--time-limit S] [--step-time-limit S]
 //                      [--dump STEP,STEP,... --dump-dir DIR] [--max-new-solvers N]
+//                      [--one-group]
 //
 // --count and --seed size and vary the larger scenes (stack_scenes.h; the arm's count is
 // its payload's mass in kg). --time-limit is the
 // cadmm drop-in's budget per solveGroup (SolverOptions::timeLimit), --step-time-limit its budget
-// per step (SolverOptions::stepTimeLimit). --dump writes the
+// per step (SolverOptions::stepTimeLimit). --one-group has Bullet hand the whole world to
+// one solveGroup call a step (its islands not split), as an engine that hands cadmm all its
+// contacts at once does. --dump writes the
 // problem of every group solved at the given steps to DIR/SCENE-stepN-groupK.hdf5 (FCLib;
 // needs a cadmm built with CADMM_WITH_FCLIB), with either solver.
 //
@@ -44,6 +47,8 @@
 #include "cadmm_constraint_solver.h"
 #include "solution_check.h"
 #include "stack_scenes.h"
+
+#include <BulletCollision/CollisionDispatch/btSimulationIslandManager.h>
 
 #include <algorithm>
 #include <cmath>
@@ -97,19 +102,20 @@ struct Args {
   int count = 0, seed = 1;
   int maxNewSolvers = -1;  // -1: not checked
   std::vector<int> dump;  // steps whose groups are written as FCLib files
-  bool cold = false, json = false, check = false, hinge = false;
+  bool cold = false, json = false, check = false, hinge = false, oneGroup = false;
 };
 
 [[noreturn]] void usage(const char *msg) {
   std::fprintf(stderr,
                "cadmm_bullet_stack: %s\nusage: cadmm_bullet_stack --scene tower|drop|mass-ratio-100|"
-               "mass-ratio-1000|pyramid|pendulum|simple-pendulum|big-pyramid|pyramids|wall|bin|chain|arm|"
+               "mass-ratio-1000|pyramid|pendulum|simple-pendulum|big-pyramid|pyramids|pyramids-hit|wall|"
+               "bin|chain|arm|"
                "ragdoll --solver cadmm|bullet "
                "[--seconds S] [--bullet-iterations N] [--cold] [--json] [--trace FILE.csv] "
                "[--check] [--with-hinge] [--tolerance T] [--max-iterations N] "
                "[--check-tolerance T] [--damping D] [--count N] [--seed N] [--time-limit S] "
                "[--step-time-limit S] "
-               "[--dump STEP,STEP,... --dump-dir DIR] [--max-new-solvers N]\n",
+               "[--dump STEP,STEP,... --dump-dir DIR] [--max-new-solvers N] [--one-group]\n",
                msg);
   std::exit(64);
 }
@@ -156,6 +162,7 @@ Args parse(int argc, char **argv) {
     else if (k == "--json") a.json = true;
     else if (k == "--check") a.check = true;
     else if (k == "--with-hinge") a.hinge = true;
+    else if (k == "--one-group") a.oneGroup = true;
     else usage(("unknown option " + k).c_str());
   }
   if (a.solver != "cadmm" && a.solver != "bullet") usage("--solver must be cadmm or bullet");
@@ -241,6 +248,7 @@ int main(int argc, char **argv) {
   }
   StackWorld w(std::move(solver));
   w.world().getSolverInfo().m_numIterations = args.bulletIterations;
+  if (args.oneGroup) w.world().getSimulationIslandManager()->setSplitIslands(false);
   if (!buildScene(args.scene, w, args.count, unsigned(args.seed)))
     usage(("unknown scene " + args.scene).c_str());
   if (args.hinge) addHinge(w);

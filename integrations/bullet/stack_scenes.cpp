@@ -258,11 +258,18 @@ bool buildScene(const std::string &name, StackWorld &w, int count, unsigned seed
     for (int row = 0; row < base; ++row)
       for (int k = 0; k < base - row; ++k)
         w.addBox(kCube, 1, btVector3(1.05 * (k - (base - 1 - row) / 2.0), 0.5 + row, 0));
-  } else if (name == "pyramids") {  // separate islands: Bullet solves each in its own call
-    for (int p = 0; p < (count > 0 ? count : 3); ++p)
+  } else if (name == "pyramids" || name == "pyramids-hit") {  // separate islands
+    const int pyramids = count > 0 ? count : 3;
+    for (int p = 0; p < pyramids; ++p)
       for (int row = 0; row < 12; ++row)
         for (int k = 0; k < 12 - row; ++k)
           w.addBox(kCube, 1, btVector3(1.05 * (k - (11 - row) / 2.0), 0.5 + row, 3.0 * p));
+    if (name == "pyramids-hit") {  // the last pyramid hit from its far side after 0.5 s
+      std::uniform_real_distribution<double> aim(-2, 2);
+      const double z = 3.0 * (pyramids - 1);
+      w.ball = {0.5, 0.25, 20, btVector3(aim(rng), 2.5, z + 3), btVector3(0, 1, -8)};
+      w.inMotion = true;
+    }
   } else if (name == "wall") {
     buildWall(w, count > 0 ? count : 100, rng);
   } else if (name == "bin") {

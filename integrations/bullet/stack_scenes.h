@@ -87,6 +87,8 @@ class StackWorld {
 //  - "big-pyramid": rows of count (15), count - 1, ..., 1 boxes (120), 5 cm apart in a row;
 //  - "pyramids": count (3) pyramids of 12 rows (78 boxes each, as "big-pyramid"), 3 m apart:
 //    islands large enough that Bullet hands each to its own solveGroup call;
+//  - "pyramids-hit": the same, the last one hit after 0.5 s by a 20 kg ball at 8 m/s from
+//    its far side (aim along x drawn from seed): one island in motion beside resting ones;
 //  - "wall": count (100) bricks of 40 x 20 x 20 cm in running bond, rows of 10, touching,
 //    hit by a 20 kg ball at 8 m/s after 1 s (StackWorld::Throw), its aim varied by seed;
 //  - "bin": count (512) boxes of 1 to 5 kg and 24 to 36 cm, dropped in layers into a 3 x 3 m

@@ -4,20 +4,23 @@
 
 mod free_motion;
 pub(crate) mod islands;
+pub(crate) mod offered;
 pub(crate) mod refine;
 mod small_island;
 mod strategy;
 
+use crate::coupled::CoupledSolver;
 use crate::csc::norm2;
 use crate::measure::{free_contact_velocity, solution_error, MeasureWork, Scales};
 use crate::problem::{check_len, KeptValues, NewValues, Problem};
 use crate::scene::islands::{contact_rows, gather, positions, Part, Partition};
 use crate::scene::refine::{most_severe, refine_rounds, SolveInParts};
 use crate::scene::small_island::SmallWork;
-use crate::scene::strategy::{PartSolver, SolveContext};
+use crate::scene::strategy::{PartSolver, Plan, SolveContext};
 use crate::settings::{NewtonUse, Settings};
 use crate::tuning::{FREE_CONTACT_SHARE, ISLAND_ROUNDS};
 use crate::types::{Error, Solution, Status};
+use offered::Offered;
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -46,12 +49,26 @@ pub(crate) struct Scene {
     kept: KeptValues,
 }
 
+/// A scene whose parts' solvers are chosen (`Scene::plan`), before the offered solvers
+/// they take are handed over (`Scene::new`).
+pub(crate) struct ScenePlan {
+    whole: Problem,
+    parts: Vec<(Part, Plan)>,
+    n_islands: usize,
+    bodiless: Vec<usize>,
+    row_of: Vec<usize>,
+    work: Vec<SmallWork>,
+}
+
 impl Scene {
-    pub(crate) fn new(
+    /// Plans the parts of `partition`: each builds its solver, or takes an offered coupled
+    /// solver that fits its sub-problem ([`Offered`]).
+    pub(crate) fn plan(
         whole: Problem,
         partition: Partition,
         settings: &Settings,
-    ) -> Result<Self, Error> {
+        offered: &mut Offered,
+    ) -> Result<ScenePlan, Error> {
         let Partition {
             islands,
             free,
@@ -68,12 +85,49 @@ impl Scene {
         let mut work = vec![SmallWork::default()];
         let parts = all
             .into_iter()
-            .map(|part| {
-                PartSolver::new(part, &whole, &row_of, settings, newton_polish, &mut work[0])
+            .map(|mut part| {
+                let plan = PartSolver::plan(
+                    &mut part,
+                    &whole,
+                    &row_of,
+                    settings,
+                    newton_polish,
+                    &mut work[0],
+                    offered,
+                )?;
+                Ok((part, plan))
             })
-            .collect::<Result<Vec<_>, _>>()?;
+            .collect::<Result<Vec<_>, Error>>()?;
+        Ok(ScenePlan {
+            whole,
+            parts,
+            n_islands,
+            bodiless,
+            row_of,
+            work,
+        })
+    }
+
+    /// The scene `plan` chose, taking the offered solvers its parts took from `offered`.
+    pub(crate) fn new(
+        plan: ScenePlan,
+        settings: &Settings,
+        offered: &mut [Option<Box<CoupledSolver>>],
+    ) -> Self {
+        let ScenePlan {
+            whole,
+            parts,
+            n_islands,
+            bodiless,
+            row_of,
+            work,
+        } = plan;
+        let parts = parts
+            .into_iter()
+            .map(|(part, plan)| PartSolver::new(part, &whole, settings, plan, offered))
+            .collect();
         let measure = MeasureWork::new(&whole);
-        Ok(Self {
+        Self {
             whole,
             parts,
             n_islands,
@@ -83,7 +137,25 @@ impl Scene {
             row_of,
             work,
             kept: KeptValues::default(),
-        })
+        }
+    }
+
+    /// The parts' coupled solvers, for a rebuild to offer (in the order of
+    /// [`Scene::into_offered`]).
+    pub(crate) fn coupled_to_offer(&mut self) -> Vec<&mut CoupledSolver> {
+        self.parts
+            .iter_mut()
+            .filter_map(PartSolver::coupled_to_offer)
+            .collect()
+    }
+
+    /// [`Scene::coupled_to_offer`], taken.
+    pub(crate) fn into_offered(self) -> Vec<Option<Box<CoupledSolver>>> {
+        self.parts
+            .into_iter()
+            .filter_map(PartSolver::into_offered)
+            .map(Some)
+            .collect()
     }
 
     pub(crate) fn update(&mut self, problem: Problem) -> Result<(), Error> {

@@ -9,6 +9,7 @@ use crate::measure::{Floors, Scales};
 use crate::problem::{NewValues, Problem};
 use crate::scene::free_motion::FreeMotion;
 use crate::scene::islands::{contact_rows, Part, ValueBuffers};
+use crate::scene::offered::{Offer, Offered};
 use crate::scene::small_island::{Site, SmallIsland, SmallWork};
 use crate::settings::Settings;
 use crate::tuning::NEWTON_FIRST_STEPS;
@@ -24,6 +25,15 @@ pub(crate) struct SolveContext<'a> {
     pub(crate) row_of: &'a [usize],
     pub(crate) settings: &'a Settings,
     pub(crate) t0: Instant,
+}
+
+/// How a part is to be solved: the strategy built, or an offered coupled solver.
+pub(crate) struct Plan(Planned);
+
+enum Planned {
+    Strategy(Strategy),
+    /// The index of an offered coupled solver that took the part's sub-problem.
+    Offered(usize),
 }
 
 /// How a part is solved.
@@ -69,43 +79,65 @@ pub(crate) struct PartSolver {
 }
 
 impl PartSolver {
-    /// Chooses the part's strategy and builds it. Small islands go to Newton directly when
-    /// the settings polish with Newton (`newton_polish`).
-    pub(crate) fn new(
-        mut part: Part,
+    /// Chooses the part's strategy and builds it, or takes an offered coupled solver that
+    /// fits its sub-problem (`offered`). Small islands go to Newton directly when the
+    /// settings polish with Newton (`newton_polish`). The part's entry maps are filled.
+    pub(crate) fn plan(
+        part: &mut Part,
         whole: &Problem,
         row_of: &[usize],
         settings: &Settings,
         newton_polish: bool,
         work: &mut SmallWork,
-    ) -> Result<Self, Error> {
+        offered: &mut Offered,
+    ) -> Result<Plan, Error> {
         let free = match whole {
-            Problem::Global(g) => FreeMotion::new(g, &part, row_of)?,
+            Problem::Global(g) => FreeMotion::new(g, part, row_of)?,
             Problem::Local(_) => None,
         };
         let site = Site {
             whole,
-            part: &part,
+            part,
             row_of,
         };
         let small = match (&free, newton_polish) {
             (None, true) => SmallIsland::new(site, settings.trace, work)?,
             _ => None,
         };
-        let strategy = match (free, small) {
-            (Some(free), _) => Strategy::FreeMotion(Box::new(free)),
-            (None, Some(newton)) => Strategy::DenseNewton {
+        Ok(Plan(match (free, small) {
+            (Some(free), _) => Planned::Strategy(Strategy::FreeMotion(Box::new(free))),
+            (None, Some(newton)) => Planned::Strategy(Strategy::DenseNewton {
                 newton,
                 fallback: None,
                 solved_by_newton: false,
+            }),
+            (None, None) => match offered.take(part.sub_problem(whole, row_of)?)? {
+                Offer::Taken(k) => Planned::Offered(k),
+                Offer::NoneFits(sub) => Planned::Strategy(Strategy::Coupled(Box::new(
+                    CoupledSolver::new(sub, settings.clone(), NewtonFirst::IfSmall)?,
+                ))),
             },
-            (None, None) => Strategy::Coupled(Box::new(CoupledSolver::new(
-                part.sub_problem(whole, row_of)?,
-                settings.clone(),
-                NewtonFirst::IfSmall,
-            )?)),
+        }))
+    }
+
+    /// The part's solver as `plan` chose it; an offered one is taken from `offered` (the
+    /// replaced layout's coupled solvers, by the index `plan` gave).
+    pub(crate) fn new(
+        part: Part,
+        whole: &Problem,
+        settings: &Settings,
+        plan: Plan,
+        offered: &mut [Option<Box<CoupledSolver>>],
+    ) -> Self {
+        let strategy = match plan.0 {
+            Planned::Strategy(s) => s,
+            Planned::Offered(k) => {
+                let mut solver = offered[k].take().expect("taken once");
+                solver.update_settings(settings);
+                Strategy::Coupled(solver)
+            }
         };
-        Ok(Self {
+        Self {
             share: shares(&part, whole),
             stats: Stats::default(),
             trace: Vec::new(),
@@ -119,7 +151,23 @@ impl PartSolver {
             tolerance: settings.tolerance,
             outcome: Ok(Status::Unsolved),
             interrupt: Arc::default(),
-        })
+        }
+    }
+
+    /// The part's coupled solver when it is one, for a rebuild to offer.
+    pub(crate) fn coupled_to_offer(&mut self) -> Option<&mut CoupledSolver> {
+        match &mut self.strategy {
+            Strategy::Coupled(c) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// [`PartSolver::coupled_to_offer`], taken.
+    pub(crate) fn into_offered(self) -> Option<Box<CoupledSolver>> {
+        match self.strategy {
+            Strategy::Coupled(c) => Some(c),
+            _ => None,
+        }
     }
 
     /// The coupled solver, when the part has one built.

@@ -29,6 +29,9 @@ pub struct Solver {
     resolved: Resolved,
     /// The islands and their solvers; `None` while a budgeted start has not needed them.
     layout: Option<Layout>,
+    /// A budgeted solver's islands from before its last rebuild: the islands it builds
+    /// next may take their solvers (`scene::offered`).
+    spare: Option<Layout>,
     /// The Gauss-Seidel phase of a solver built with a time limit, when the problem suits it.
     budgeted: Option<Box<BudgetedStart>>,
     /// The flag of [`Solver::set_interrupt`], handed to the islands when they are built.
@@ -247,6 +250,7 @@ impl Solver {
             settings: user,
             inner: settings,
             layout,
+            spare: None,
             budgeted,
             interrupt: None,
             solves: 0,
@@ -324,7 +328,7 @@ impl Solver {
         };
         if !reused {
             // Islands whose sub-problems did not change keep their solvers.
-            let mut replaced = self.layout.take();
+            let mut replaced = self.layout.take().or_else(|| self.spare.take());
             let built = Self::replacing(problem.clone(), self.settings.clone(), &mut replaced);
             let mut fresh = match built {
                 Ok(fresh) => fresh,
@@ -340,7 +344,9 @@ impl Solver {
             *self = fresh;
             return Ok(());
         }
-        self.layout = None;
+        if let Some(layout) = self.layout.take() {
+            self.spare = Some(layout);
+        }
         self.solves = 0;
         self.islands_first = false;
         let (nc, n, np) = (
@@ -373,9 +379,9 @@ impl Solver {
     }
 
     /// Builds the islands of `problem` (a budgeted start's, when the sweeps need them),
-    /// with the interrupt if one was set.
-    fn build(&self, problem: Problem) -> Result<(Layout, usize), Error> {
-        let (mut layout, islands) = Layout::new(problem, &self.inner, &mut None)?;
+    /// with the interrupt if one was set; they may take the spare islands' solvers.
+    fn build(&mut self, problem: Problem) -> Result<(Layout, usize), Error> {
+        let (mut layout, islands) = Layout::new(problem, &self.inner, &mut self.spare)?;
         if let Some(flag) = &self.interrupt {
             layout.set_interrupt(flag);
         }
@@ -500,9 +506,10 @@ impl Solver {
     /// better answer by the measure is handed back.
     fn hand_over(&mut self, sweeps: usize, swept_error: f64, t0: Instant) -> Result<Status, Error> {
         if self.layout.is_none() {
-            let budgeted = self.budgeted.as_ref().expect("budgeted");
             let built = Instant::now();
-            let (mut layout, islands) = self.build(budgeted.problem())?;
+            let problem = self.budgeted.as_ref().expect("budgeted").problem();
+            let (mut layout, islands) = self.build(problem)?;
+            let budgeted = self.budgeted.as_ref().expect("budgeted");
             if let Some((r, v)) = budgeted.used_warm() {
                 layout.warm_start(r, v)?;
             }
@@ -737,5 +744,33 @@ mod tests {
         assert_eq!(solver.solve().unwrap(), Status::Solved);
         assert_eq!(solver.solution().r, answer.r);
         assert_eq!(solver.solution().v, answer.v);
+    }
+
+    /// A budgeted solver builds its islands when its sweeps hand over; after a rebuild its
+    /// next islands take the solvers of those whose patterns stayed.
+    #[test]
+    fn a_budgeted_rebuild_keeps_the_islands_for_the_next_handover() {
+        let settings = Settings {
+            newton_polish: Some(false),
+            tolerance: 1e-12,
+            time_limit: 60.0,
+            ..Settings::default()
+        };
+        let scene =
+            Problem::block_diagonal(&[pile(4, 1, -1.0, 1.0), pile(4, 2, -1.0, 1.0)]).unwrap();
+        let mut solver = Solver::new(scene, settings).unwrap();
+        assert!(solver.budgeted.is_some());
+        solver.solve().unwrap();
+        assert!(solver.stats().iterations > 0, "the sweeps handed over");
+        let before = addresses(&mut solver);
+        let next =
+            Problem::block_diagonal(&[pile(4, 1, -1.5, 2.0), pile(5, 3, -1.0, 1.0)]).unwrap();
+        solver.rebuild(&next).unwrap();
+        assert!(solver.layout.is_none(), "the sweeps start again");
+        assert_eq!(solver.solve().unwrap(), Status::Solved);
+        assert!(solver.stats().iterations > 0, "the sweeps handed over");
+        let after = addresses(&mut solver);
+        assert_eq!(after[0], before[0], "the first island kept its solver");
+        assert_ne!(after[1], before[1]);
     }
 }

@@ -7,6 +7,7 @@
 
 use crate::budgeted::BudgetedStart;
 use crate::coupled::{CoupledSolver, NewtonFirst};
+use crate::measure::Floors;
 use crate::problem::{NewValues, Problem};
 use crate::scene::islands::{partition_global, partition_local};
 use crate::scene::offered::{Offer, Offered};
@@ -116,6 +117,9 @@ impl Layout {
             }
             Planned::Whole(Ok(k), islands) => {
                 let mut solver = solvers[k].take().expect("taken once");
+                // An island's solver judged itself by its share of the scene's measure; a
+                // problem solved whole has no floors.
+                solver.set_measure_floors(Floors::default());
                 solver.update_settings(settings);
                 solver.set_linear_threads(settings.threads);
                 (Layout::Whole(solver), islands)
@@ -744,6 +748,37 @@ mod tests {
         assert_eq!(solver.solve().unwrap(), Status::Solved);
         assert_eq!(solver.solution().r, answer.r);
         assert_eq!(solver.solution().v, answer.v);
+    }
+
+    /// An island's solver taken by a problem solved whole (the other island gone) answers
+    /// as a new solver of that problem, bit for bit: the island's measure floors go.
+    #[test]
+    fn an_island_solver_taken_by_a_whole_problem_answers_as_a_new_one() {
+        let settings = Settings {
+            newton_polish: Some(false),
+            ..Settings::default()
+        };
+        let a = pile(4, 1, -1.0, 1.0);
+        let scene = Problem::block_diagonal(&[a.clone(), pile(4, 2, -30.0, 0.1)]).unwrap();
+        let mut solver = Solver::new(scene, settings.clone()).unwrap();
+        assert_eq!(solver.solve().unwrap(), Status::Solved);
+        let before = addresses(&mut solver);
+        solver.rebuild(&a).unwrap();
+        assert_eq!(
+            addresses(&mut solver)[0],
+            before[0],
+            "the island's solver kept"
+        );
+        assert_eq!(solver.solve().unwrap(), Status::Solved);
+        let mut fresh = Solver::new(a, settings).unwrap();
+        assert_eq!(fresh.solve().unwrap(), Status::Solved);
+        assert_eq!(solver.solution(), fresh.solution());
+        assert_eq!(solver.stats().iterations, fresh.stats().iterations);
+        assert_eq!(
+            solver.stats().error,
+            fresh.stats().error,
+            "measured without floors"
+        );
     }
 
     /// A budgeted solver builds its islands when its sweeps hand over; after a rebuild its

@@ -134,6 +134,9 @@ impl PartSolver {
             Planned::Offered(k) => {
                 let mut solver = offered[k].take().expect("taken once");
                 solver.update_settings(settings);
+                // As a new island's: the scene's threads go to the islands, not their
+                // linear algebra (a problem solved whole had them).
+                solver.set_linear_threads(1);
                 Strategy::Coupled(solver)
             }
         };

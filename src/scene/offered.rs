@@ -1,7 +1,8 @@
 //! The coupled solvers of a layout being replaced (`Solver::rebuild`), offered to the
 //! islands of the new one: an island whose sub-problem has the sizes and sparsity patterns
 //! of an offered solver's problem takes that solver with its new values (numeric
-//! refactorization only), and keeps its analysis, its adapted rho and its memory. A scene
+//! refactorization only, its first rho picked again as a new solver's), and keeps its
+//! analysis and its memory. A scene
 //! whose contacts change in one place (a box falling beside resting stacks, handed over
 //! as one problem) then rebuilds the islands that changed, not the whole scene.
 

@@ -195,13 +195,15 @@ impl CoupledSolver {
 
     /// [`CoupledSolver::update`] for a solver taken over by another problem of the same
     /// patterns (an island kept by a rebuild): its first rho is picked again from the new
-    /// values, as a new solver's would be, so that it answers as one.
+    /// values and its measure floors go (a scene sets its islands' at every solve), as for
+    /// a new solver, so that it answers as one.
     pub(crate) fn take_over(&mut self, problem: Problem) -> Result<(), Error> {
         let rho0 = initial_rho(self.resolved.initial_rho, &problem)?;
         let before = std::mem::replace(&mut self.rho0, rho0);
         match self.update(problem) {
             Ok(()) => {
                 self.state.rho = rho0;
+                self.set_measure_floors(Floors::default());
                 Ok(())
             }
             Err(e) => {

@@ -7,7 +7,6 @@
 
 use crate::budgeted::BudgetedStart;
 use crate::coupled::{CoupledSolver, NewtonFirst};
-use crate::measure::Floors;
 use crate::problem::{NewValues, Problem};
 use crate::scene::islands::{partition_global, partition_local};
 use crate::scene::offered::{Offer, Offered};
@@ -102,7 +101,7 @@ impl Layout {
                 return Err(e);
             }
         };
-        let reused = offered.taken().count() > 0;
+        let reused = offered.took_any();
         drop(offered);
         // The replaced layout goes: its solvers that were taken into the new one.
         let mut solvers = match (reused, replaced.take()) {
@@ -117,9 +116,6 @@ impl Layout {
             }
             Planned::Whole(Ok(k), islands) => {
                 let mut solver = solvers[k].take().expect("taken once");
-                // An island's solver judged itself by its share of the scene's measure; a
-                // problem solved whole has no floors.
-                solver.set_measure_floors(Floors::default());
                 solver.update_settings(settings);
                 solver.set_linear_threads(settings.threads);
                 (Layout::Whole(solver), islands)

@@ -106,20 +106,20 @@ CadmmConstraintSolver::Kept &CadmmConstraintSolver::pushValues(const ContactProb
   }
   std::unique_ptr<cadmm_problem, void (*)(cadmm_problem *)> problem(p.make(), cadmm_problem_free);
   ++stats_.newSolvers;
-  Kept *reused = nullptr;
   auto gap = [&](const Kept &k) {  // how far a kept solver's sizes are from the group's
     return std::abs(double(k.problem.contacts()) - double(p.contacts()));
   };
-  for (const bool otherStepsOnly : {true, false}) {
-    if (!otherStepsOnly && kept_.size() < kKeptSolvers) break;
-    for (Kept &k : kept_) {
-      if (otherStepsOnly && k.lastStep == step_) continue;
-      const bool nearer = !reused || gap(k) < gap(*reused) ||
-                          (gap(k) == gap(*reused) && k.lastUsed > reused->lastUsed);
-      if (nearer) reused = &k;
-    }
-    if (reused) break;
-  }
+  // The kept solver nearest the group among those `eligible`, the most recent of equals.
+  auto nearest = [&](auto eligible) {
+    Kept *best = nullptr;
+    for (Kept &k : kept_)
+      if (eligible(k) && (!best || gap(k) < gap(*best) ||
+                          (gap(k) == gap(*best) && k.lastUsed > best->lastUsed)))
+        best = &k;
+    return best;
+  };
+  Kept *reused = nearest([&](const Kept &k) { return k.lastStep != step_; });
+  if (!reused && kept_.size() == kKeptSolvers) reused = nearest([](const Kept &) { return true; });
   if (!reused) {
     cadmm_solver *solver = nullptr;
     check(cadmm_solver_new(problem.get(), settings_, &solver), "cadmm_solver_new");

@@ -27,7 +27,7 @@ pub(crate) struct Offered<'a> {
 }
 
 impl<'a> Offered<'a> {
-    /// Offers `solvers` (in the order [`Offered::taken`]'s indices refer to).
+    /// Offers `solvers` (in the order the indices of [`Offer::Taken`] refer to).
     pub(crate) fn new(solvers: Vec<&'a mut CoupledSolver>) -> Self {
         Self {
             solvers: solvers.into_iter().map(Some).collect(),
@@ -58,9 +58,9 @@ impl<'a> Offered<'a> {
         taken.map(|()| Offer::Taken(k))
     }
 
-    /// The indices of the solvers taken.
-    pub(crate) fn taken(&self) -> impl Iterator<Item = usize> + '_ {
-        self.taken.iter().map(|(k, _, _)| *k)
+    /// Whether any solver was taken.
+    pub(crate) fn took_any(&self) -> bool {
+        !self.taken.is_empty()
     }
 
     /// Gives every solver taken its old problem back (the new layout was refused).

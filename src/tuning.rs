@@ -160,6 +160,19 @@ pub const NEWTON_BUDGET: f64 = 1.0;
 /// were about to converge (FCLib set at 1e-8: 8.2 s in all with 50, 6.7 s with 200, 5.2 s with 400).
 pub const NEWTON_MAX_STEPS: usize = 400;
 
+/// A global Newton phase from ADMM gives up once its steps without progress have cost about
+/// this many ADMM iterations, at a step's cost predicted from the factor's analysis
+/// (`ProblemSplitting::newton_stall`), and after [`NewtonTuning::stall`] steps at most. The
+/// 60-step window was chosen on Box_Stacks, where a step costs 8 to 11 iterations (predicted;
+/// 9 to 11 measured) and converging phases go up to 47 steps without progress. On sphere
+/// piles of 2 800 contacts a step costs 73 to 115 (predicted; 57 to 70 measured): failed
+/// phases there ran 60 steps past their best at 4 to 6 s each, where the whole of ADMM took
+/// 2 to 3 s, and those that converged went at most 8 steps without progress.
+pub const NEWTON_STALL_ITERATIONS: f64 = 600.0;
+
+/// ... but at least this many steps.
+pub const NEWTON_MIN_STALL: usize = 5;
+
 /// The solver works to `tolerance * (1 - ROUND_OFF_MARGIN)`: the measure of a solution
 /// computed elsewhere (another summation order, another program) differs by round-off, and
 /// a solution reported solved must meet the tolerance there too. At mass ratio 1e4 the local

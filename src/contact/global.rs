@@ -24,7 +24,7 @@ use crate::measure::Floors;
 use crate::newton::{GlobalNewton, NewtonOutcome};
 use crate::problem::{GlobalProblem, NewValues, Problem, ProblemRef};
 use crate::settings::LinearSolver;
-use crate::tuning::SCREEN_RATIO;
+use crate::tuning::{NEWTON, NEWTON_MIN_STALL, NEWTON_STALL_ITERATIONS, SCREEN_RATIO};
 use crate::types::Error;
 use crate::types::Solution;
 use std::time::Instant;
@@ -387,6 +387,22 @@ fn shift_norms(p: &GlobalProblem) -> [f64; 2] {
     [norm_mu, p.h.norm_fro()]
 }
 
+impl ProblemSplitting {
+    /// Steps without progress a Newton phase may take, from what a step is predicted to
+    /// cost in ADMM iterations: `NEWTON_STALL_ITERATIONS` worth of them, between
+    /// `NEWTON_MIN_STALL` and `NEWTON.stall`. A step factorizes the system reduced to the
+    /// velocities, whose pattern is that of `M + rho H H^T`: about the multiply-adds of its
+    /// Cholesky factorization, against an iteration's two triangular solves and products
+    /// with `H` (its factor's entries and `H`'s). `None` where that factor is not a sparse
+    /// Cholesky (dense, LU, matrix-free): the window stays `NEWTON.stall`.
+    fn newton_stall(&self) -> Option<usize> {
+        let (flops, entries) = self.system.sparse_cholesky_cost()?;
+        let step_iterations = flops / (entries + self.p.h.nnz()) as f64;
+        let steps = (NEWTON_STALL_ITERATIONS / step_iterations).round();
+        Some((steps as usize).clamp(NEWTON_MIN_STALL, NEWTON.stall))
+    }
+}
+
 impl ContactForm for ProblemSplitting {
     fn update(&mut self, p: Problem) -> Result<(), Error> {
         let Problem::Global(p) = p else {
@@ -559,6 +575,9 @@ impl ContactForm for ProblemSplitting {
         if self.newton.is_none() {
             let mut newton = GlobalNewton::new(&self.p)?;
             newton.set_measure_floors(self.system.own().floors());
+            if let Some(steps) = self.newton_stall() {
+                newton.set_stall(steps);
+            }
             self.newton = Some(newton);
         }
         let newton = self.newton.as_mut().expect("built above");
@@ -666,6 +685,69 @@ mod tests {
             .unwrap();
         s.cold_start(&mut state);
         assert_eq!(s.screened, [false, false]);
+    }
+
+    /// Unit-mass points on a `nx x ny x nz` grid (3 velocities each), a contact between each
+    /// pair of neighbours (normal along the axis they share).
+    fn grid_problem(nx: usize, ny: usize, nz: usize) -> GlobalProblem {
+        let at = |x: usize, y: usize, z: usize| (z * ny + y) * nx + x;
+        let mut pairs = Vec::new();
+        for (x, y, z) in
+            (0..nz).flat_map(|z| (0..ny).flat_map(move |y| (0..nx).map(move |x| (x, y, z))))
+        {
+            let me = at(x, y, z);
+            for (axis, next) in [(0, x + 1 < nx), (1, y + 1 < ny), (2, z + 1 < nz)] {
+                if next {
+                    let other = at(
+                        x + (axis == 0) as usize,
+                        y + (axis == 1) as usize,
+                        z + (axis == 2) as usize,
+                    );
+                    pairs.push((me, other, axis));
+                }
+            }
+        }
+        let mut h = Vec::new();
+        for (c, &(a, b, axis)) in pairs.iter().enumerate() {
+            for k in 0..3 {
+                let d = (axis + k) % 3;
+                h.push((3 * b + d, 3 * c + k, 1.0));
+                h.push((3 * a + d, 3 * c + k, -1.0));
+            }
+        }
+        let (n, m) = (3 * nx * ny * nz, 3 * pairs.len());
+        GlobalProblem::new(
+            CscMatrix::identity(n),
+            CscMatrix::from_triplets("H", n, m, &h).unwrap(),
+            vec![0.0; n],
+            vec![0.0; m],
+            vec![0.5; pairs.len()],
+        )
+        .unwrap()
+    }
+
+    /// A Newton phase may go the fewer steps without progress the more a step costs against
+    /// an ADMM iteration: the whole default window along a chain, whose factor does not
+    /// fill, and a shorter one, not below the floor, in a block of points whose factor's
+    /// dense separators make a step cost far more than an iteration's solves. Without a
+    /// sparse Cholesky (the matrix-free backend), the default.
+    #[test]
+    fn a_newton_phase_stalls_sooner_where_its_steps_cost_more() {
+        let window =
+            |p: GlobalProblem, backend| ProblemSplitting::new(p, backend).unwrap().newton_stall();
+        assert_eq!(
+            window(grid_problem(400, 1, 1), LinearSolver::Direct),
+            Some(NEWTON.stall)
+        );
+        let block = window(grid_problem(12, 12, 12), LinearSolver::Direct).unwrap();
+        assert!(
+            (NEWTON_MIN_STALL..NEWTON.stall / 2).contains(&block),
+            "{block}"
+        );
+        assert_eq!(
+            window(grid_problem(12, 12, 12), LinearSolver::Iterative),
+            None
+        );
     }
 
     /// `v` of the x-step at `rho` by a dense solve of the unregularized joint system

@@ -81,6 +81,15 @@ impl Factor {
         }
     }
 
+    /// Multiply-adds of one numeric factorization and the entries of the factor, for a
+    /// sparse Cholesky (from its analysis); `None` for a dense factor or LU.
+    pub fn sparse_cholesky_cost(&self) -> Option<(f64, usize)> {
+        match self {
+            Factor::Dense(_) => None,
+            Factor::Sparse(f) => f.factorization_flops().zip(f.stored_entries()),
+        }
+    }
+
     /// New values on the same pattern; the next [`Factor::set_rho`] refactorizes.
     pub fn reassemble(
         &mut self,

@@ -9,7 +9,7 @@ use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, LltRef, SymbolicCholesky,
-    SymmetricOrdering,
+    SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
@@ -122,6 +122,29 @@ impl SparseFactor {
             Symbolic::Cholesky(s) => Some(s.len_val()),
             Symbolic::Lu(_) => None,
         }
+    }
+
+    /// Multiply-adds of one numeric Cholesky factorization, from the symbolic analysis (the
+    /// sum of its columns' squared counts); `None` for LU, whose fill depends on the pivots.
+    pub fn factorization_flops(&self) -> Option<f64> {
+        let Symbolic::Cholesky(s) = &self.symbolic else {
+            return None;
+        };
+        let squared = |count: usize| (count * count) as f64;
+        Some(match s.raw() {
+            SymbolicCholeskyRaw::Simplicial(c) => {
+                c.col_ptr().windows(2).map(|w| squared(w[1] - w[0])).sum()
+            }
+            SymbolicCholeskyRaw::Supernodal(c) => {
+                let below = c.nnz_per_super();
+                (0..c.n_supernodes())
+                    .map(|k| {
+                        let (b, e) = (c.supernode_begin()[k], c.supernode_end()[k]);
+                        (b..e).map(|j| squared(e - j + below[k])).sum::<f64>()
+                    })
+                    .sum()
+            }
+        })
     }
 
     /// New values on the same pattern (see [`ParamMatrix::reassemble`]); drops every
@@ -324,4 +347,45 @@ fn factorize_ldlt(
     )
     .map_err(|_| Error::NotPositiveDefinite { field: name })?;
     Ok(Numeric::Cholesky(l))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A symmetric matrix of `n` unknowns with `entry(i, j)` for `i != j` where it returns
+    /// a value (both triangles), diagonally dominant.
+    fn factor_of(n: usize, entry: impl Fn(usize, usize) -> Option<f64>) -> SparseFactor {
+        let triplets: Vec<_> = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .filter_map(|(i, j)| match i == j {
+                true => Some((i, i, 2.0 * n as f64)),
+                false => entry(i, j).map(|v| (i, j, v)),
+            })
+            .collect();
+        let (matrix, _) = ParamMatrix::from_triplets(n, triplets, [], true);
+        SparseFactor::new("test", matrix, FactorKind::Cholesky).unwrap()
+    }
+
+    /// The predicted multiply-adds are the factor's squared column counts summed, counted
+    /// here by hand: a tridiagonal matrix keeps its pattern (columns of 2, the last of 1)
+    /// whatever the ordering, and a full one fills its whole lower triangle (columns of
+    /// `n` down to 1). The two take faer's simplicial and supernodal analyses (whose
+    /// stored entries count whole diagonal blocks, so only the first one's are checked).
+    #[test]
+    fn factorization_flops_count_the_factor_columns() {
+        let n = 300;
+        let tri = factor_of(n, |i, j| (i.abs_diff(j) == 1).then_some(-1.0));
+        assert_eq!(tri.stored_entries(), Some(2 * n - 1));
+        assert_eq!(tri.factorization_flops(), Some((4 * (n - 1) + 1) as f64));
+        let n = 200;
+        let full = factor_of(n, |i, j| Some(1.0 / (1 + i + j) as f64));
+        let squares: usize = (1..=n).map(|k| k * k).sum();
+        assert_eq!(full.factorization_flops(), Some(squares as f64));
+        let kinds = [&tri, &full].map(|f| match &f.symbolic {
+            Symbolic::Cholesky(s) => matches!(s.raw(), SymbolicCholeskyRaw::Supernodal(_)),
+            Symbolic::Lu(_) => unreachable!("Cholesky asked"),
+        });
+        assert_eq!(kinds, [false, true], "one analysis of each kind");
+    }
 }

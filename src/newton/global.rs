@@ -39,6 +39,7 @@ use super::{
 use crate::csc::CscMatrix;
 use crate::measure::{global_error_with, MeasureWork};
 use crate::problem::{GlobalProblem, Joints};
+use crate::tuning::NEWTON;
 use crate::types::Error;
 use std::time::Instant;
 
@@ -84,6 +85,8 @@ pub struct GlobalNewton {
     measure: MeasureWork,
     /// The free velocity `w + H^T diag(M)^-1 f`, for [`NewtonSystem::impulse_scale`].
     u_free: Vec<f64>,
+    /// Steps without progress after which a solve gives up ([`GlobalNewton::set_stall`]).
+    stall: usize,
 }
 
 fn pattern_of(a: &CscMatrix) -> (Vec<usize>, Vec<usize>) {
@@ -222,6 +225,7 @@ impl GlobalNewton {
             best: vec![0.0; nz],
             z: vec![0.0; nz],
             measure: MeasureWork::global(prob),
+            stall: NEWTON.stall,
             u_free: vec![0.0; 3 * nc],
         };
         newton.take_values(prob);
@@ -246,6 +250,13 @@ impl GlobalNewton {
         let dest = blocks.destinations(&pat);
         let lu = SparseLu::new("global Newton matrix", pat)?;
         Ok(Unreduced { dest, lu })
+    }
+
+    /// Steps without progress after which a solve gives up, when a step's cost is known
+    /// (`NEWTON.stall` otherwise): a phase should not go on without progress past what
+    /// ADMM would have done in that time (`GlobalSplitting::newton_stall`).
+    pub fn set_stall(&mut self, steps: usize) {
+        self.stall = steps.max(1);
     }
 
     /// Floors of the error measure (an island's share of a scene's measure).
@@ -432,6 +443,10 @@ impl NewtonSystem for GlobalNewton {
 
     fn trial(&self) -> &[f64] {
         &self.z_trial
+    }
+
+    fn stall(&self) -> usize {
+        self.stall
     }
 
     fn factorizations(&self) -> usize {

@@ -121,6 +121,11 @@ pub(crate) trait NewtonSystem {
     fn alpha_cap(&self) -> f64 {
         NEWTON.alpha_cap
     }
+    /// Steps without progress after which the iteration gives up ([`NewtonTuning::stall`]
+    /// unless a system knows what its steps cost).
+    fn stall(&self) -> usize {
+        NEWTON.stall
+    }
 }
 
 /// The Newton iteration both forms share: regularized steps, non-monotone line search,
@@ -152,6 +157,7 @@ pub(crate) fn iterate<S: NewtonSystem>(
         met_at: None,
         mark: err,
         last_improvement: 0,
+        stall: s.stall(),
     };
     let mut reg = Regularization::new(s.alpha_cap());
     let mut window = MeritWindow::new(merit);
@@ -235,6 +241,8 @@ struct Progress {
     mark: f64,
     /// ... and the iteration that made it.
     last_improvement: usize,
+    /// Steps without progress after which the iteration gives up.
+    stall: usize,
 }
 
 impl Progress {
@@ -265,7 +273,7 @@ impl Progress {
             FailReason::MaxIterations
         } else if deadline.is_some_and(|d| Instant::now() >= d) {
             FailReason::Deadline
-        } else if iterations - self.last_improvement >= NEWTON.stall {
+        } else if iterations - self.last_improvement >= self.stall {
             FailReason::NoProgress
         } else {
             return None;
@@ -496,33 +504,42 @@ mod progress_tests {
     use super::*;
 
     fn progress(err: f64) -> Progress {
+        progress_within(err, NEWTON.stall)
+    }
+
+    fn progress_within(err: f64, stall: usize) -> Progress {
         Progress {
             err,
             rel: 1.0,
             met_at: None,
             mark: err,
             last_improvement: 0,
+            stall,
         }
     }
 
     /// Steps that each improve the best error a little, but never by a tenth together
-    /// within the window, end the phase as no progress, at the window's end.
+    /// within the window, end the phase as no progress, at the window's end: the default
+    /// window and the shorter ones of systems whose steps cost more.
     #[test]
     fn a_creeping_phase_stops_after_the_window() {
-        let mut p = progress(1e-5);
-        let mut stopped = None;
-        for k in 1..=3 * NEWTON.stall {
-            let err = 1e-5 * (1.0 - 1e-3 * k as f64);
-            assert!(p.improves(err, 1.0, k, 1e-8), "step {k} is a new best");
-            if let Some(status) = p.stop(1.0, k, 1e-8, usize::MAX, None) {
-                stopped = Some((k, status));
-                break;
+        for stall in [NEWTON.stall, 8, crate::tuning::NEWTON_MIN_STALL] {
+            let mut p = progress_within(1e-5, stall);
+            let mut stopped = None;
+            for k in 1..=3 * NEWTON.stall {
+                let err = 1e-5 * (1.0 - 1e-3 * k as f64);
+                assert!(p.improves(err, 1.0, k, 1e-8), "step {k} is a new best");
+                if let Some(status) = p.stop(1.0, k, 1e-8, usize::MAX, None) {
+                    stopped = Some((k, status));
+                    break;
+                }
             }
+            assert_eq!(
+                stopped,
+                Some((stall, NewtonStatus::Failed(FailReason::NoProgress))),
+                "window {stall}"
+            );
         }
-        assert_eq!(
-            stopped,
-            Some((NEWTON.stall, NewtonStatus::Failed(FailReason::NoProgress)))
-        );
     }
 
     /// A tenth off the error within the window starts a new window.

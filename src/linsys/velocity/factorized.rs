@@ -222,4 +222,8 @@ impl ProblemSystem for FactorizedSystem {
     fn backend(&self) -> LinearSolver {
         LinearSolver::Direct
     }
+
+    fn sparse_cholesky_cost(&self) -> Option<(f64, usize)> {
+        self.factor.sparse_cholesky_cost()
+    }
 }

@@ -118,6 +118,12 @@ pub(crate) trait ProblemSystem: VelocitySystem<Data = GlobalProblem> + Send {
     /// The backend, which a rebuild keeps.
     fn backend(&self) -> LinearSolver;
 
+    /// Multiply-adds of one factorization of the system and the entries of its factor,
+    /// when it is a sparse Cholesky (`None` otherwise: dense, LU, or not factorized).
+    fn sparse_cholesky_cost(&self) -> Option<(f64, usize)> {
+        None
+    }
+
     /// Threads the products may use (the results do not depend on them).
     fn set_threads(&mut self, _threads: usize) {}
 

@@ -162,12 +162,13 @@ pub const NEWTON_MAX_STEPS: usize = 400;
 
 /// A global Newton phase from ADMM gives up once its steps without progress have cost about
 /// this many ADMM iterations, at a step's cost predicted from the factor's analysis
-/// (`ProblemSplitting::newton_stall`), and after [`NewtonTuning::stall`] steps at most. The
-/// 60-step window was chosen on Box_Stacks, where a step costs 8 to 11 iterations (predicted;
-/// 9 to 11 measured) and converging phases go up to 47 steps without progress. On sphere
-/// piles of 2 800 contacts a step costs 73 to 115 (predicted; 57 to 70 measured): failed
-/// phases there ran 60 steps past their best at 4 to 6 s each, where the whole of ADMM took
-/// 2 to 3 s, and those that converged went at most 8 steps without progress.
+/// (`ProblemSplitting::newton_stall`), and after [`NewtonTuning::stall`] steps at most: the
+/// 60-step window was chosen on Box_Stacks, where a step costs 8 to 11 iterations
+/// (predicted; 9 to 11 measured), and keeps it. On sphere piles of 2 800 contacts a step
+/// costs 74 to 115 (predicted; 52 to 68 measured), a window of 5 to 8 steps: failed phases
+/// there had run 60 steps past their best at 60 ms a step, up to 4 s where ADMM alone took
+/// 2 s, while the phases that solve those piles converged within the shorter window too
+/// (docs/perf/newton-window-2026-11-28).
 pub const NEWTON_STALL_ITERATIONS: f64 = 600.0;
 
 /// ... but at least this many steps.

@@ -11,7 +11,8 @@
 # at an engine's tolerance of 1e-4, ODE's two solvers once each (they must run),
 # ode_vehicle_cadmm (a car on four hinge-2 wheels driven over a bump: every step solved and
 # re-measured within 1e-8, all wheels over the bump, no wheel joint opened by 1 cm or
-# turned by 0.01 rad), and the ode_check_* negative controls: runs where one check must
+# turned by 0.01 rad), ode_stack_cadmm_chain (20 links on ball joints swinging into a box:
+# every step solved and re-measured within 1e-8), and the ode_check_* negative controls: runs where one check must
 # fail with its own message (cmake/ExpectCheckFailure.cmake), ODE QuickStep letting the
 # 1000:1 stack collapse among them.
 find_package(PkgConfig QUIET)
@@ -73,16 +74,30 @@ if(CADMM_ODE_FOUND)
             --json --check)
   ode_stack(cadmm_wall 0 --scene wall --count 30 --solver cadmm --seconds 1.5 --tolerance 1e-4
             --json --check)
+  if(CADMM_WITH_FCLIB)
+    # --dump: two of the wall's steps (at rest, and as the ball hits) written as FCLib files,
+    # each read back and the step's answer measured on it as on the step's problem; and the
+    # check that fires when a file cannot be written.
+    ode_stack(cadmm_wall_dump 0 --scene wall --count 30 --solver cadmm --seconds 1.2
+              --tolerance 1e-4 --json --check --dump 20,65 --dump-dir ${_ode_work})
+    ode_check_fails(ode_check_catches_dump EXPECT "check failed: 1 dumped steps not written"
+      ARGS --scene tower --solver cadmm --seconds 0.2 --check --dump 5
+           --dump-dir ${_ode_work}/no-such-directory)
+  endif()
   ode_stack(cadmm_bin 0 --scene bin --count 64 --seed 3 --solver cadmm --seconds 1.5
             --tolerance 1e-4 --json --check)
   # The vehicle (integrations/ode/scenes.c): 2 s take all four wheels over the bump (at
   # 1.65 s) and the rear ones through their slip coming off it.
   ode_run(ode_vehicle_cadmm cadmm_ode_stack 0 --scene vehicle --solver cadmm --seconds 2 --json
           --check)
+  # The chain (scenes.c): released at rest, it strikes the box at about 1.3 s.
+  ode_stack(cadmm_chain 0 --scene chain --solver cadmm --seconds 2 --json --check)
   ode_stack(quickstep_runs 0 --scene pyramid --solver ode-quickstep --seconds 1 --json)
   ode_stack(step_runs 0 --scene mass-ratio-100 --solver ode-step --seconds 1 --json)
   # ODE's joint multipliers recovered from its hinge-2 feedback (stack.c) on the way.
   ode_stack(quickstep_vehicle_runs 0 --scene vehicle --solver ode-quickstep --seconds 2 --json)
+  # ... and from the chain's ball joints.
+  ode_stack(quickstep_chain_runs 0 --scene chain --solver ode-quickstep --seconds 2 --json)
   ode_check_fails(ode_check_fails_quickstep EXPECT "check failed: a body fell"
     ARGS --scene mass-ratio-1000 --solver ode-quickstep --seconds 2 --json --check)
   # One iteration per step, cold: steps end unsolved (and more fails).

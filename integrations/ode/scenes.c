@@ -6,7 +6,7 @@
 #include <string.h>
 
 const char *const scene_names =
-    "tower|mass-ratio-100|mass-ratio-1000|pyramid|slide|big-pyramid|wall|bin|vehicle";
+    "tower|mass-ratio-100|mass-ratio-1000|pyramid|slide|big-pyramid|wall|bin|vehicle|chain";
 
 static const double side = 0.5; /* the stacks' boxes are 0.5 m cubes */
 static const double gravity = 9.81;
@@ -136,6 +136,32 @@ static void bin(scene *s, long count, rng *r) {
     s->in_motion = 1;
 }
 
+/* A joint of the scene, its feedback set. */
+static dJointID add_joint(scene *s, dJointID j) {
+    dJointSetFeedback(j, &s->joint_feedback[s->n_joints]);
+    s->joints[s->n_joints++] = j;
+    return j;
+}
+
+/* Links of 0.3 m, 0.1 m apart along x, each on a ball joint to the one before at the middle
+ * of their gap, the first on one to the world 0.2 m before its center, 9 m up; released
+ * horizontal, the chain swings down through the box standing under its first 2 m, whose
+ * place along y the seed draws. */
+static void chain(scene *s, long count, rng *r) {
+    const double he[3] = {0.15, 0.15, 0.15}, box_he[3] = {0.5, 0.5, 0.75}, pivot_z = 9.0;
+    add_box(s, 5.0, box_he, 0.6, uniform(r, -0.3, 0.3), box_he[2] - sink, NULL);
+    dBodyID prev = NULL;
+    for (long k = 0; k < count; k++) {
+        add_box(s, 1.0, he, 0.2 + 0.4 * (double)k, 0, pivot_z, NULL);
+        dBodyID link = s->bodies[s->n - 1];
+        dJointID j = add_joint(s, dJointCreateBall(s->world, 0));
+        dJointAttach(j, link, prev); /* the first: to the world */
+        dJointSetBallAnchor(j, 0.4 * (double)k, 0, pivot_z);
+        prev = link;
+    }
+    s->in_motion = 1;
+}
+
 /* A car at full scale, ODE's demo_buggy grown to road size: a 1200 kg chassis box (4 x 1.7
  * x 0.5 m) on four 20 kg sphere wheels of radius 0.35 m (a 60:1 mass ratio across every
  * joint), wheelbase 2.6 m, track 1.7 m, each wheel on a dJointHinge2 anchored at its
@@ -176,7 +202,7 @@ static void vehicle(scene *s) {
         const double p[3] = {axle * corner[k][0], track * corner[k][1], WHEEL_R - sink};
         for (int d = 0; d < 3; d++) s->half[s->n][d] = WHEEL_R;
         dBodyID w = add_body(s, dCreateSphere(s->space, WHEEL_R), &m, p, NULL);
-        dJointID j = dJointCreateHinge2(s->world, 0);
+        dJointID j = add_joint(s, dJointCreateHinge2(s->world, 0));
         dJointAttach(j, chassis, w);
         dJointSetHinge2Anchor(j, p[0], p[1], p[2]);
         const dReal a1[3] = {0, 0, 1}, a2[3] = {0, 1, 0};
@@ -189,8 +215,6 @@ static void vehicle(scene *s) {
             dJointSetHinge2Param(j, dParamVel2, -VEHICLE_SPEED / WHEEL_R);
             dJointSetHinge2Param(j, dParamFMax2, 800);
         }
-        dJointSetFeedback(j, &s->joint_feedback[k]);
-        s->joints[s->n_joints++] = j;
     }
     /* The joints keep their anchors in the bodies' frames: moved down, the chassis' anchors
      * sit `sag` below the wheels', the springs' preload. */
@@ -206,14 +230,16 @@ static void vehicle(scene *s) {
     dGeomSetPosition(bump, s->bump_x, 0, 0);
     s->mu = 1.0;
     s->in_motion = 1;
+    s->vehicle = 1;
 }
 
-enum { TOWER = 1, RATIO100, RATIO1000, PYRAMID, SLIDE, BIG_PYRAMID, WALL, BIN, VEHICLE };
+enum { TOWER = 1, RATIO100, RATIO1000, PYRAMID, SLIDE, BIG_PYRAMID, WALL, BIN, VEHICLE, CHAIN };
 
 static int kind_of(const char *name) {
     static const char *const names[] = {"tower",   "mass-ratio-100", "mass-ratio-1000",
                                         "pyramid", "slide",          "big-pyramid",
-                                        "wall",    "bin",            "vehicle"};
+                                        "wall",    "bin",            "vehicle",
+                                        "chain"};
     for (int k = 0; k < (int)(sizeof names / sizeof names[0]); k++)
         if (!strcmp(name, names[k])) return k + 1;
     return 0;
@@ -225,7 +251,8 @@ int scene_build(scene *s, const char *name, long count, unsigned long seed) {
                         ratio1000[] = {1, 1000};
     int kind = kind_of(name);
     if (!kind) return -1;
-    if (count < 0 || count > SCENE_MAX_COUNT || (kind == BIG_PYRAMID && count > SCENE_MAX_BASE))
+    if (count < 0 || count > SCENE_MAX_COUNT || (kind == BIG_PYRAMID && count > SCENE_MAX_BASE) ||
+        (kind == CHAIN && count > SCENE_MAX_LINKS))
         return -2;
     long base = count > 0 ? count : 15;
     size_t cap = kind == TOWER         ? 5
@@ -235,12 +262,16 @@ int scene_build(scene *s, const char *name, long count, unsigned long seed) {
                  : kind == WALL        ? (size_t)(count > 0 ? count : 100) + 1 /* the ball */
                  : kind == BIN         ? (size_t)(count > 0 ? count : 512)
                  : kind == VEHICLE     ? 5
+                 : kind == CHAIN       ? (size_t)(count > 0 ? count : 20) + 1 /* the box */
                                        : 2;
+    size_t joints = kind == VEHICLE ? 4 : kind == CHAIN ? cap - 1 : 0;
     s->bodies = malloc(cap * sizeof *s->bodies);
     s->geoms = malloc(cap * sizeof *s->geoms);
     s->half = malloc(cap * sizeof *s->half);
     s->start = malloc(cap * sizeof *s->start);
-    if (!s->bodies || !s->geoms || !s->half || !s->start) {
+    s->joints = malloc((joints + 1) * sizeof *s->joints);
+    s->joint_feedback = malloc((joints + 1) * sizeof *s->joint_feedback);
+    if (!s->bodies || !s->geoms || !s->half || !s->start || !s->joints || !s->joint_feedback) {
         scene_free(s);
         return -2;
     }
@@ -269,6 +300,7 @@ int scene_build(scene *s, const char *name, long count, unsigned long seed) {
     if (kind == WALL) wall(s, count > 0 ? count : 100, &r);
     if (kind == BIN) bin(s, count > 0 ? count : 512, &r);
     if (kind == VEHICLE) vehicle(s);
+    if (kind == CHAIN) chain(s, count > 0 ? count : 20, &r);
     /* The vehicle reports its chassis. */
     s->top = kind == VEHICLE ? 0 : s->n - 1;
     return 0;
@@ -290,5 +322,7 @@ void scene_free(scene *s) {
     free(s->geoms);
     free(s->half);
     free(s->start);
+    free(s->joints);
+    free(s->joint_feedback);
     memset(s, 0, sizeof *s);
 }

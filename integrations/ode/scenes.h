@@ -8,6 +8,8 @@
 /* The largest --count a scene takes (big-pyramid's count is its base row). */
 #define SCENE_MAX_COUNT 100000
 #define SCENE_MAX_BASE 300
+/* The longest chain. */
+#define SCENE_MAX_LINKS 1000
 
 typedef struct scene {
     dWorldID world;
@@ -31,14 +33,17 @@ typedef struct scene {
         double radius, mass, from[3], velocity[3];
     } ball;
     double mu; /* the friction coefficient of every contact (0.5; the vehicle's tyres 1) */
-    /* "vehicle": the hinge-2 joints from the chassis (body 0) to wheel k (body k + 1: front
-     * left, front right, rear left, rear right), each with its feedback (set, so that ODE's
-     * solvers hand back their joint forces), the wheels' radius, and the bump: a static
-     * capsule across the road (along y) of radius bump_radius, its axis at x = bump_x on
-     * the ground. n_joints is 0 for the other scenes. */
+    /* The scene's joints, each with its feedback (set, so that ODE's solvers hand back their
+     * joint forces): the vehicle's hinge-2s, the chain's balls; n_joints is 0 for the other
+     * scenes. */
     size_t n_joints;
-    dJointID joints[4];
-    dJointFeedback joint_feedback[4];
+    dJointID *joints;
+    dJointFeedback *joint_feedback;
+    /* "vehicle": its joints go from the chassis (body 0) to wheel k (body k + 1: front
+     * left, front right, rear left, rear right); the wheels' radius, and the bump: a static
+     * capsule across the road (along y) of radius bump_radius, its axis at x = bump_x on
+     * the ground. */
+    int vehicle;
     double wheel_radius, bump_x, bump_radius;
 } scene;
 
@@ -54,10 +59,15 @@ typedef struct scene {
  *    towards 0.6 of the wall's height, sideways offset drawn from seed in [-0.3, 0.3] m;
  *  - "bin": count (512) boxes of 1 to 5 kg, half extents 0.12 to 0.18 m and tilts within
  *    0.3 rad drawn from seed, in layers of 8 x 8, dropped into a 3 x 3 m bin whose four
- *    walls (1 m high) are static geoms.
+ *    walls (1 m high) are static geoms;
+ *  - "chain": count (20) links, 0.3 m cubes of 1 kg 10 cm apart along x, on ball joints at
+ *    the middle of the gaps, the first hung from a fixed point 9 m up: released horizontal,
+ *    the chain swings down into a 5 kg box (1 x 1 x 1.5 m) standing below. The seed moves
+ *    the box along y by up to 0.3 m, so that the links strike it elsewhere.
  * The other scenes ignore count and seed. The world has gravity -9.81 z and ODE's default
  * parameters except a 1 mm contact surface layer. 0 on success, -1 for an unknown name, -2
- * when out of memory or count is above SCENE_MAX_COUNT (big-pyramid: SCENE_MAX_BASE). */
+ * when out of memory or count is above SCENE_MAX_COUNT (big-pyramid: SCENE_MAX_BASE;
+ * chain: SCENE_MAX_LINKS). */
 int scene_build(scene *s, const char *name, long count, unsigned long seed);
 
 /* Called before each step (0-based): adds the wall's ball at its step (its room is kept

@@ -3,13 +3,15 @@
  * impulses from cadmm (cadmm_ode.h) or from ODE's own solvers, printing one summary line.
  *
  *   cadmm_ode_stack --scene tower|mass-ratio-100|mass-ratio-1000|pyramid|slide|
- *                           big-pyramid|wall|bin|vehicle
+ *                           big-pyramid|wall|bin|vehicle|chain
  *                   --solver cadmm|ode-quickstep|ode-step --seconds S
  *                   [--json] [--trace FILE.csv] [--cold] [--check] [--count N] [--seed N]
  *                   [--tolerance T] [--max-iterations N] [--check-tolerance T] [--mu M]
- *                   [--time-limit S] [--ode-iterations N]
+ *                   [--time-limit S] [--ode-iterations N] [--dump STEP,... --dump-dir DIR]
  *
- * --count and --seed size and vary big-pyramid, wall and bin (scenes.h). --ode-iterations
+ * --count and --seed size and vary big-pyramid, wall, bin and chain (scenes.h). --dump writes
+ * the problem of each listed step (1-based) as an FCLib file, DIR/SCENE-stepN.hdf5, with
+ * either solver (joints as equality rows; cadmm built with CADMM_WITH_FCLIB). --ode-iterations
  * sets dWorldQuickStep's iterations (dWorldSetQuickStepNumIterations; ODE's default 20).
  *
  * --check exits with 1 when the scene failed, after one "check failed: ..." line per failed
@@ -37,8 +39,8 @@
  * bound scales with the normal force), default ERP and CFM and iterations unless
  * --ode-iterations. Their impulses (contact joint feedback forces times h) are measured
  * with cadmm's error measure on the same problem cadmm solves, so max_error compares like
- * with like; the vehicle's joint multipliers are recovered from its hinge-2 joints'
- * feedback (ode_joint_multipliers), cadmm's are its own.
+ * with like; the joint multipliers of the vehicle's hinge-2s and the chain's balls are
+ * recovered from their feedback (ode_joint_multipliers), cadmm's are its own.
  */
 #include "cadmm_ode.h"
 #include "check.h"
@@ -86,6 +88,10 @@ typedef struct options {
     long max_iterations, count, ode_iterations;
     unsigned long seed;
     int json, cold, check;
+    /* --dump: steps (1-based) whose problem is written as an FCLib file into dump_dir. */
+    const char *dump_dir;
+    long dump[16];
+    size_t n_dump;
 } options;
 
 /* The contacts of one step, g1 always carrying a body. */
@@ -97,6 +103,7 @@ typedef struct contact_list {
 
 typedef struct summary {
     size_t steps, solved_steps, unsolved, builds, updates, contact_sum, max_contacts, warm_matched;
+    size_t dumps_failed, dumps_differ; /* --dump: files not written or read, read back unlike */
     double iterations_sum, max_iterations, solve_ms_sum, max_solve_ms, cpu_ms_sum, max_cpu_ms;
     double max_penetration, max_drift, max_error, max_checked_error;
     int fell;
@@ -131,7 +138,7 @@ static int usage(const char *why) {
             "                       --seconds S [--json] [--trace FILE.csv] [--cold] [--check]\n"
             "                       [--count N] [--seed N] [--tolerance T] [--max-iterations N]\n"
             "                       [--check-tolerance T] [--mu M] [--time-limit S]\n"
-            "                       [--ode-iterations N]\n",
+            "                       [--ode-iterations N] [--dump STEP,... --dump-dir DIR]\n",
             why, scene_names);
     return 2;
 }
@@ -184,6 +191,20 @@ static int parse(int argc, char **argv, options *o) {
             o->max_iterations = strtol(argv[++i], &end, 10);
             if (*end || o->max_iterations < 1 || o->max_iterations > 1000000000)
                 return usage("--max-iterations needs a positive integer");
+        } else if (!strcmp(a, "--dump-dir") && has_value) {
+            o->dump_dir = argv[++i];
+        } else if (!strcmp(a, "--dump") && has_value) {
+            const char *at = argv[++i];
+            for (;;) {
+                char *end;
+                long step = strtol(at, &end, 10);
+                if (end == at || step < 1 || o->n_dump == sizeof o->dump / sizeof o->dump[0])
+                    return usage("--dump takes up to 16 step numbers from 1, comma-separated");
+                o->dump[o->n_dump++] = step;
+                if (!*end) break;
+                if (*end != ',') return usage("--dump takes step numbers separated by commas");
+                at = end + 1;
+            }
         } else if (!strcmp(a, "--ode-iterations") && has_value) {
             char *end;
             o->ode_iterations = strtol(argv[++i], &end, 10);
@@ -196,6 +217,7 @@ static int parse(int argc, char **argv, options *o) {
         }
     }
     if (!o->scene) return usage("--scene is required");
+    if (o->n_dump && !o->dump_dir) return usage("--dump needs --dump-dir");
     if (o->seconds < 0) return usage("--seconds is required");
     if (o->check_tolerance == 0) o->check_tolerance = o->tolerance;
     if (!solver || !strcmp(solver, "cadmm")) o->solver = SOLVER_CADMM;
@@ -328,10 +350,9 @@ static int ode_joint_multipliers(const scene *s, const cadmm_ode *ctx,
  * one by the wheel) apart across axis 1 (the joint's gap; along axis 1 is the suspension's
  * travel, by design), its axes off square, its steering angle (locked at 0); the chassis'
  * height, pitch and roll, also while a wheel is on the bump; when the last wheel passed
- * the bump's far foot. Returns the step's largest gap (0 without joints). */
+ * the bump's far foot. Returns the step's largest gap. */
 static double observe_vehicle(const scene *s, summary *sum, double time) {
     double step_gap = 0.0;
-    if (!s->n_joints) return step_gap;
     for (size_t j = 0; j < s->n_joints; j++) {
         dVector3 p1, p2, g1, g2;
         dJointGetHinge2Anchor(s->joints[j], p1);
@@ -380,6 +401,25 @@ static double observe_vehicle(const scene *s, summary *sum, double time) {
     return step_gap;
 }
 
+/* The chain after a step: each ball joint's two anchors apart (the one its first body
+ * carries, the one its second body or the world does). Returns the step's largest gap.
+ * Reported, not checked: the joints hold velocities, and at the swing's bottom every solver
+ * leaves them open by 13 to 14 cm (ODE's exact dWorldStep among them), closing again at
+ * ERP's pace. */
+static double observe_balls(const scene *s, summary *sum) {
+    double step_gap = 0.0;
+    for (size_t j = 0; j < s->n_joints; j++) {
+        dVector3 p1, p2;
+        dJointGetBallAnchor(s->joints[j], p1);
+        dJointGetBallAnchor2(s->joints[j], p2);
+        double d[3] = {p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]};
+        double gap = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (!(gap <= step_gap)) step_gap = gap;
+    }
+    if (!(step_gap <= sum->max_joint_gap)) sum->max_joint_gap = step_gap;
+    return step_gap;
+}
+
 /* Drift of the top body and whether any body left the stack (moved sideways by more than
  * its half width; not for the sliding box) or sank (by more than half its half height); a
  * scene in motion only reports its top body's height and drift. */
@@ -412,6 +452,38 @@ static double collide(const scene *s, contact_list *cl, summary *sum) {
         if (cl->geoms[c].depth > depth) depth = cl->geoms[c].depth;
     if (depth > sum->max_penetration) sum->max_penetration = depth;
     return depth;
+}
+
+/* --dump: the step's problem (1-based `step`) as DIR/SCENE-stepN.hdf5, joints as equality
+ * rows; a problem FCLib cannot hold (bounded or compliant rows) is reported, not written.
+ * The file is read back, and the step's answer (r, v, lambda) measured on both: 1 when the
+ * two measures differ (the file does not hold the step's problem), -1 when it could not be
+ * written or read, 0 otherwise (also for steps not listed). */
+static int dump_problem(const options *o, const cadmm_ode_problem *p, size_t step,
+                        const double *r, const double *v, const double *lambda) {
+    int listed = 0;
+    for (size_t k = 0; k < o->n_dump; k++) listed |= (size_t)o->dump[k] == step;
+    if (!listed) return 0;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s-step%zu.hdf5", o->dump_dir, o->scene, step);
+    cadmm_problem *made = NULL, *read = NULL;
+    cadmm_result rc =
+        cadmm_problem_new_global(p->n, p->n_contacts, &p->M, &p->H, p->f, p->w, p->mu, &made);
+    if (rc == CADMM_OK && p->n_joint_rows) rc = cadmm_problem_set_joints(made, &p->G, p->b);
+    if (rc == CADMM_OK && p->n_joint_rows) rc = cadmm_problem_set_joint_bounds(made, p->lo, p->hi);
+    if (rc == CADMM_OK && p->n_joint_rows) rc = cadmm_problem_set_joint_compliance(made, p->c);
+    if (rc == CADMM_OK) rc = cadmm_problem_write_fclib(made, path);
+    if (rc == CADMM_OK) rc = cadmm_problem_read_fclib(path, &read);
+    double written = NAN, back = NAN;
+    if (rc == CADMM_OK) rc = cadmm_problem_error_with_multipliers(made, r, v, lambda, &written);
+    if (rc == CADMM_OK) rc = cadmm_problem_error_with_multipliers(read, r, v, lambda, &back);
+    if (rc != CADMM_OK)
+        fprintf(stderr, "cadmm_ode_stack: cannot dump %s: %s\n", path, cadmm_last_error());
+    cadmm_problem_free(made);
+    cadmm_problem_free(read);
+    if (rc != CADMM_OK) return -1;
+    /* The same doubles in the same order: the two measures agree to round-off. */
+    return !(fabs(back - written) <= 1e-12 * fmax(1.0, fabs(written)));
 }
 
 static const char *solver_name(solver_kind k) {
@@ -469,12 +541,14 @@ static void report(const options *o, const scene *s, const summary *sum, double 
                    "\"warm_matched\":%zu",
                    sum->unsolved, sum->builds, sum->updates, sum->warm_matched);
         if (s->n_joints) {
-            /* The vehicle (observe_vehicle; lengths in m, angles in rad, times in s). */
-            const dReal *x = dBodyGetPosition(s->bodies[s->top]);
             printf(",\"joints\":%zu", s->n_joints);
             print_number("ode_iterations", (double)o->ode_iterations,
                          o->solver == SOLVER_QUICKSTEP && o->ode_iterations > 0);
             print_number("max_joint_gap", sum->max_joint_gap, 1);
+        }
+        if (s->vehicle) {
+            /* The vehicle (observe_vehicle; lengths in m, angles in rad, times in s). */
+            const dReal *x = dBodyGetPosition(s->bodies[s->top]);
             print_number("max_axis_error", sum->max_axis_error, 1);
             print_number("max_steer", sum->max_steer, 1);
             print_number("max_suspension_travel", sum->max_suspension_travel, 1);
@@ -505,7 +579,9 @@ static void report(const options *o, const scene *s, const summary *sum, double 
                    "%zu steps above tolerance\n",
                    sum->iterations_sum / solved, sum->max_iterations, sum->builds, sum->updates,
                    sum->unsolved);
-        if (s->n_joints)
+        if (s->n_joints && !s->vehicle)
+            printf("joints: %zu, largest gap %.3g m\n", s->n_joints, sum->max_joint_gap);
+        if (s->vehicle)
             printf("vehicle: drove %.3g m (%.3g m/s at the end), %s %.3g s; joint gap %.3g m, "
                    "axes %.3g rad off, steering %.3g rad, suspension travel %.3g m; chassis z "
                    "%.3g to %.3g m (on the bump %.3g to %.3g), pitch %.3g rad (on the bump "
@@ -639,6 +715,11 @@ int main(int argc, char **argv) {
             double checked = check_error(&problem, r, v, rows ? lambda : NULL);
             if (!(checked <= sum.max_checked_error)) sum.max_checked_error = checked;
         }
+        if (cr == CADMM_OK && problem.n) {
+            int dumped = dump_problem(&o, &problem, step + 1, r, v, rows ? lambda : NULL);
+            sum.dumps_failed += dumped < 0;
+            sum.dumps_differ += dumped > 0;
+        }
         if (cr != CADMM_OK) {
             fprintf(stderr, "cadmm_ode_stack: step %zu: %s\n", step, cadmm_ode_last_error(ctx));
             status = 2;
@@ -665,7 +746,9 @@ int main(int argc, char **argv) {
         }
         double top_z = 0.0, drift = 0.0;
         observe(&s, &sum, &top_z, &drift);
-        double gap = observe_vehicle(&s, &sum, (double)(step + 1) * STEP);
+        double gap = s.vehicle     ? observe_vehicle(&s, &sum, (double)(step + 1) * STEP)
+                     : s.n_joints ? observe_balls(&s, &sum)
+                                  : 0.0;
         if (trace)
             fprintf(trace, "%zu,%.6f,%.6f,%.6f,%.0f,%.6e,%zu,%d,%zu,%.9f,%.9f,%.9f,%.9f\n", step,
                     (double)(step + 1) * STEP, ms, cpu_ms,
@@ -689,8 +772,8 @@ int main(int argc, char **argv) {
                slide_expected, final_speed);
     }
     if (o.check) {
-        const char *failed[12];
-        char buf[7][160];
+        const char *failed[13];
+        char buf[8][160];
         int nf = 0;
         if (sum.fell) failed[nf++] = "a body fell";
         if (s.launch == 0 && !s.in_motion && !(sum.max_drift < 1e-3))
@@ -715,22 +798,28 @@ int main(int argc, char **argv) {
                      sum.unsolved);
             failed[nf++] = buf[3];
         }
-        if (s.n_joints && isnan(sum.over_time)) {
+        if (s.vehicle && isnan(sum.over_time)) {
             const dReal *x = dBodyGetPosition(s.bodies[s.top]);
             snprintf(buf[4], sizeof buf[4], "the vehicle did not get over the bump (drove %.3g m)",
                      x[0] - s.start[s.top][0]);
             failed[nf++] = buf[4];
         }
-        if (s.n_joints && !(sum.max_joint_gap < VEHICLE_MAX_GAP)) {
+        if (s.vehicle && !(sum.max_joint_gap < VEHICLE_MAX_GAP)) {
             snprintf(buf[5], sizeof buf[5], "a wheel's joint opened %.3g m (bound %.3g m)",
                      sum.max_joint_gap, VEHICLE_MAX_GAP);
             failed[nf++] = buf[5];
         }
-        if (s.n_joints && !(fmax(sum.max_axis_error, sum.max_steer) < VEHICLE_MAX_ANGLE)) {
+        if (s.vehicle && !(fmax(sum.max_axis_error, sum.max_steer) < VEHICLE_MAX_ANGLE)) {
             snprintf(buf[6], sizeof buf[6],
                      "a wheel's axes turned %.3g rad off (steering %.3g rad; bound %.3g rad)",
                      sum.max_axis_error, sum.max_steer, VEHICLE_MAX_ANGLE);
             failed[nf++] = buf[6];
+        }
+        if (sum.dumps_failed || sum.dumps_differ) {
+            snprintf(buf[7], sizeof buf[7],
+                     "%zu dumped steps not written or read, %zu read back as another problem",
+                     sum.dumps_failed, sum.dumps_differ);
+            failed[nf++] = buf[7];
         }
         char err[160];
         if (o.solver == SOLVER_CADMM && !(sum.max_checked_error <= o.check_tolerance)) {

@@ -1,16 +1,19 @@
 #!/usr/bin/env python3
-"""The engine benchmark: every Bullet scene of integrations/bullet run with cadmm at 1e-4,
-1e-6 and 1e-8, with cadmm under a time budget, and with Bullet's sequential impulse at 10
-and 100 iterations, side by side in one run, each configuration `--repeats` times (medians
-reported).
+"""The engine benchmark: every scene of an integration's driver (integrations/bullet's
+cadmm_bullet_stack, integrations/ode's cadmm_ode_stack) run with cadmm at 1e-4, 1e-6 and
+1e-8, with cadmm under a time budget, and with the engine's own solver at 10 and 100
+iterations (Bullet's sequential impulse, ODE's QuickStep), side by side in one run, each
+configuration `--repeats` times (medians reported).
 
     python3 scripts/engine_bench.py --driver build-bullet/cadmm_bullet_stack \\
         [--scenes wall,bin,chain,big-pyramid] [--solvers "cadmm 1e-4,Bullet SI100"]
         [--seconds 3] [--repeats 3] [--out DIR]
+    python3 scripts/engine_bench.py --driver build-ode/cadmm_ode_stack [...]
 
-"cadmm budget" runs cadmm at 1e-4 with SolverOptions::timeLimit set to the mean step of the
-same repeat's "Bullet SI100" run (which runs first), and compares the two runs step by
-step: the share of steps whose answer measures below SI100's at the same step, and the
+The engine is told by the driver's name. "cadmm budget" runs cadmm at 1e-4 with its time
+limit (SolverOptions::timeLimit, cadmm_ode_options.time_limit) set to the mean step of the
+same repeat's run of the engine's solver at 100 iterations (which runs first), and
+compares the two runs step by step: the share of steps whose answer measures below SI100's at the same step, and the
 median and 95th percentile of the steps' errors; and the share of its steps that end
 within 1.1 times the budget.
 
@@ -30,15 +33,25 @@ import statistics
 import subprocess
 import sys
 
-SOLVERS = [
+CADMM = [
     ("cadmm 1e-4", ["--solver", "cadmm", "--tolerance", "1e-4"]),
     ("cadmm 1e-6", ["--solver", "cadmm", "--tolerance", "1e-6"]),
     ("cadmm 1e-8", ["--solver", "cadmm", "--tolerance", "1e-8"]),
-    ("Bullet SI10", ["--solver", "bullet", "--bullet-iterations", "10"]),
-    ("Bullet SI100", ["--solver", "bullet", "--bullet-iterations", "100"]),
-    # Its --time-limit is SI100's mean step of the same repeat, added at run time.
-    ("cadmm budget", ["--solver", "cadmm", "--tolerance", "1e-4"]),
 ]
+# Per engine: its solver at 10 and 100 iterations; the second is the budget's peer.
+PEERS = {
+    "bullet": [("Bullet SI10", ["--solver", "bullet", "--bullet-iterations", "10"]),
+               ("Bullet SI100", ["--solver", "bullet", "--bullet-iterations", "100"])],
+    "ode": [("ODE QS10", ["--solver", "ode-quickstep", "--ode-iterations", "10"]),
+            ("ODE QS100", ["--solver", "ode-quickstep", "--ode-iterations", "100"])],
+}
+# Its --time-limit is the peer's mean step of the same repeat, added at run time.
+BUDGET = ("cadmm budget", ["--solver", "cadmm", "--tolerance", "1e-4"])
+
+
+def solvers_of(engine):
+    """The configurations run for `engine`, the budget's peer last before the budget."""
+    return CADMM + PEERS[engine] + [BUDGET]
 
 
 def step_errors(trace):
@@ -103,22 +116,26 @@ def median(runs, key):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--driver", required=True, help="cadmm_bullet_stack")
+    ap.add_argument("--driver", required=True, help="cadmm_bullet_stack or cadmm_ode_stack")
     ap.add_argument("--scenes", default="wall,bin,chain,big-pyramid")
-    ap.add_argument("--solvers", default=",".join(name for name, _ in SOLVERS),
-                    help="comma-separated labels of SOLVERS to run")
+    ap.add_argument("--solvers", default=None,
+                    help="comma-separated labels of the configurations to run (default all)")
     ap.add_argument("--seconds", type=float, default=3.0, help="simulated seconds per run")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--timeout", type=float, default=900, help="wall seconds per run")
     ap.add_argument("--out", default="target/engine-bench")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
-    chosen = [(name, args) for name, args in SOLVERS if name in a.solvers.split(",")]
+    engine = "ode" if "ode" in os.path.basename(a.driver) else "bullet"
+    solvers = solvers_of(engine)
+    peer = PEERS[engine][-1][0]
+    wanted = a.solvers.split(",") if a.solvers else [name for name, _ in solvers]
+    chosen = [(name, args) for name, args in solvers if name in wanted]
     if not chosen:
-        ap.error(f"--solvers: none of {a.solvers!r} is one of {[n for n, _ in SOLVERS]}")
+        ap.error(f"--solvers: none of {wanted!r} is one of {[n for n, _ in solvers]}")
     names = [name for name, _ in chosen]
-    if "cadmm budget" in names and "Bullet SI100" not in names:
-        ap.error("--solvers: \"cadmm budget\" takes its budget from \"Bullet SI100\"")
+    if BUDGET[0] in names and peer not in names:
+        ap.error(f"--solvers: \"{BUDGET[0]}\" takes its budget from \"{peer}\"")
     rows, table = [], {}
     with open(os.path.join(a.out, "engine.jsonl"), "w") as log:
         for scene in a.scenes.split(","):
@@ -132,7 +149,7 @@ def main():
                             continue
                         args = args + ["--time-limit", f"{budget / 1e3:.6g}"]
                     r = run(a.driver, scene, args, a.seconds, a.timeout, trace)
-                    if name == "Bullet SI100":
+                    if name == peer:
                         si100 = dict(r, trace=trace)
                     if name == "cadmm budget" and "steps" in r:
                         r.update(budget_ms=budget, **compare_steps(trace, si100["trace"]),
@@ -145,7 +162,7 @@ def main():
                           f"max {r.get('max_solve_ms')} ms, error {r.get('max_error')}",
                           file=sys.stderr, flush=True)
     lines = ["| scene | solver | mean step (ms) | of which setup (ms) | p99 (ms) | longest (ms) | "
-             "worst error | median / p95 step error | steps below SI100 (+ tied at round-off) | "
+             f"worst error | median / p95 step error | steps below {peer} (+ tied at round-off) | "
              "steps within 1.1 x budget | unsolved steps | "
              "deepest penetration (m) | joint gap (m) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]

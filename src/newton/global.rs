@@ -254,7 +254,7 @@ impl GlobalNewton {
 
     /// Steps without progress after which a solve gives up, when a step's cost is known
     /// (`NEWTON.stall` otherwise): a phase should not go on without progress past what
-    /// ADMM would have done in that time (`GlobalSplitting::newton_stall`).
+    /// ADMM would have done in that time (`ProblemSplitting::newton_stall`).
     pub fn set_stall(&mut self, steps: usize) {
         self.stall = steps.max(1);
     }

@@ -140,19 +140,19 @@ def main():
     with open(os.path.join(a.out, "engine.jsonl"), "w") as log:
         for scene in a.scenes.split(","):
             for rep in range(a.repeats):  # interleaved: the machine's load hits all alike
-                si100 = None
+                peer_run = None
                 for name, args in chosen:
                     trace = os.path.join(a.out, f"{scene}-{name.replace(' ', '-')}-{rep}.csv")
                     if name == "cadmm budget":
-                        budget = (si100 or {}).get("mean_solve_ms")
+                        budget = (peer_run or {}).get("mean_solve_ms")
                         if budget is None:
                             continue
                         args = args + ["--time-limit", f"{budget / 1e3:.6g}"]
                     r = run(a.driver, scene, args, a.seconds, a.timeout, trace)
                     if name == peer:
-                        si100 = dict(r, trace=trace)
+                        peer_run = dict(r, trace=trace)
                     if name == "cadmm budget" and "steps" in r:
-                        r.update(budget_ms=budget, **compare_steps(trace, si100["trace"]),
+                        r.update(budget_ms=budget, **compare_steps(trace, peer_run["trace"]),
                                  **budget_steps(trace, budget))
                     r.update(label=name, repeat=rep, scene=scene)
                     log.write(json.dumps(r) + "\n")

@@ -402,13 +402,15 @@ static double observe_vehicle(const scene *s, summary *sum, double time) {
 }
 
 /* The chain after a step: each ball joint's two anchors apart (the one its first body
- * carries, the one its second body or the world does). Returns the step's largest gap.
+ * carries, the one its second body or the world does); other joints are not read.
+ * Returns the step's largest gap.
  * Reported, not checked: the joints hold velocities, and at the swing's bottom every solver
  * leaves them open by 13 to 14 cm (ODE's exact dWorldStep among them), closing again at
  * ERP's pace. */
 static double observe_balls(const scene *s, summary *sum) {
     double step_gap = 0.0;
     for (size_t j = 0; j < s->n_joints; j++) {
+        if (dJointGetType(s->joints[j]) != dJointTypeBall) continue;
         dVector3 p1, p2;
         dJointGetBallAnchor(s->joints[j], p1);
         dJointGetBallAnchor2(s->joints[j], p2);
@@ -455,7 +457,8 @@ static double collide(const scene *s, contact_list *cl, summary *sum) {
 }
 
 /* --dump: the step's problem (1-based `step`) as DIR/SCENE-stepN.hdf5, joints as equality
- * rows; a problem FCLib cannot hold (bounded or compliant rows) is reported, not written.
+ * rows; a problem FCLib cannot hold (rows bounded, compliant or bounded by a contact) is
+ * reported, not written: every row property is handed over, so the writer refuses it.
  * The file is read back, and the step's answer (r, v, lambda) measured on both: 1 when the
  * two measures differ (the file does not hold the step's problem), -1 when it could not be
  * written or read, 0 otherwise (also for steps not listed). */
@@ -472,6 +475,8 @@ static int dump_problem(const options *o, const cadmm_ode_problem *p, size_t ste
     if (rc == CADMM_OK && p->n_joint_rows) rc = cadmm_problem_set_joints(made, &p->G, p->b);
     if (rc == CADMM_OK && p->n_joint_rows) rc = cadmm_problem_set_joint_bounds(made, p->lo, p->hi);
     if (rc == CADMM_OK && p->n_joint_rows) rc = cadmm_problem_set_joint_compliance(made, p->c);
+    if (rc == CADMM_OK && p->n_joint_rows)
+        rc = cadmm_problem_set_joint_friction(made, p->friction_contact, p->friction);
     if (rc == CADMM_OK) rc = cadmm_problem_write_fclib(made, path);
     if (rc == CADMM_OK) rc = cadmm_problem_read_fclib(path, &read);
     double written = NAN, back = NAN;

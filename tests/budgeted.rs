@@ -321,14 +321,19 @@ fn particle_chain_above(gap: f64) -> GlobalProblem {
 }
 
 /// The sweeps solve the joints' equality rows together: a chain hanging free (its contact
-/// opening) is answered exactly by the sweeps a budget of 4 allows, where rows swept one
-/// at a time carry a correction one link a sweep. Measured independently.
+/// opening) is answered exactly within the sweeps a budget of 4 allows (its second sweep
+/// stands still and is measured), where rows swept one at a time carry a correction one
+/// link a sweep. Measured independently.
 #[test]
 fn a_chain_of_equality_rows_is_solved_by_its_first_sweeps() {
     let p = particle_chain_above(1.0);
     let mut solver = Solver::new(Problem::Global(p.clone()), budget(1e-12, 1e-9)).unwrap();
     let (status, error) = solve(&mut solver, &p);
-    assert_eq!(solver.stats().gauss_seidel_sweeps, 4);
+    assert!(
+        solver.stats().gauss_seidel_sweeps <= 4,
+        "{:?}",
+        solver.stats()
+    );
     assert_eq!(status, Status::Solved);
     assert!(error <= 1e-12, "{error}");
 }

@@ -7,6 +7,7 @@
 //! after body along their chains, give it a narrow profile: it is factorized within that
 //! profile (an envelope Cholesky), and so cheaply on chains, trees and ragdolls.
 
+use super::movement::Movement;
 use super::rows::{blocks, RowGroups};
 use crate::linsys::BlockDiagonal;
 use crate::problem::Joints;
@@ -141,7 +142,14 @@ impl JointBlock {
 
     /// Solves the rows together from the velocities `v` and multipliers `lambda`: each
     /// row's velocity `G_k^T v + b_k + c_k lambda_k` becomes zero.
-    pub fn solve(&mut self, j: &Joints, groups: &RowGroups<1>, lambda: &mut [f64], v: &mut [f64]) {
+    pub fn solve(
+        &mut self,
+        j: &Joints,
+        groups: &RowGroups<1>,
+        lambda: &mut [f64],
+        v: &mut [f64],
+        moved: &mut Movement,
+    ) {
         let p = self.rows.len();
         for (y, &k) in self.step.iter_mut().zip(&self.rows) {
             *y = -j.row_velocity(k, groups.apply(k, v)[0], lambda[k]);
@@ -152,6 +160,7 @@ impl JointBlock {
                 lambda[k] += dl;
                 groups.add(k, [dl], v);
             }
+            moved.add(&[dl], &[lambda[k]]);
         }
     }
 }

@@ -76,6 +76,8 @@ struct cadmm_ode {
     char message[512];
 
     /* The assembled step. */
+    double assembly_start; /* when its assembly began (seconds_now) */
+    double after_solve;    /* seconds the last step took after cadmm's solve returned */
     dWorldID world;
     bool assembled; /* the arrays below hold a complete assembly */
     double h;
@@ -1096,10 +1098,17 @@ static void assemble_m(cadmm_ode *ctx, const body_state *s, size_t slot, int64_t
  * the slots, the contacts' bodies, the joints' bodies and row counts and which rows are
  * bounded: everything the sparsity of M, H and G and cadmm's split of the joint rows
  * depend on. */
+static double seconds_now(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
 static cadmm_result assemble(cadmm_ode *ctx, dWorldID world, const dBodyID *bodies,
                              size_t n_bodies, const dContactGeom *geoms, size_t stride,
                              const dContact *surfaces, size_t nc, double h) {
     if (!ctx) return CADMM_ERR_NULL_POINTER;
+    ctx->assembly_start = seconds_now();
     if (!world || (n_bodies && !bodies) || (nc && !geoms))
         return fail(ctx, CADMM_ERR_NULL_POINTER, "cadmm_ode_assemble: NULL %s",
                     !world ? "world" : (n_bodies && !bodies) ? "bodies" : "contacts");
@@ -1357,17 +1366,12 @@ static bool same_pattern(const cadmm_ode *ctx) {
                   ctx->pattern_len * sizeof(long)) == 0;
 }
 
-static double seconds_now(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-/* With a time limit, gives the solve what building and updating left of it (a little at
- * least: cadmm then runs its few sweeps and hands back their best answer). */
-static cadmm_result limit_solve(cadmm_ode *ctx, double start) {
+/* With a time limit, gives the solve what assembling, building and updating left of it,
+ * less what the last step took after its solve (reading back, integrating): a little at
+ * least, cadmm then runs its few sweeps and hands back their best answer. */
+static cadmm_result limit_solve(cadmm_ode *ctx) {
     if (!(ctx->opt.time_limit > 0)) return CADMM_OK;
-    double left = ctx->opt.time_limit - (seconds_now() - start);
+    double left = ctx->opt.time_limit - (seconds_now() - ctx->assembly_start) - ctx->after_solve;
     cadmm_result rc = cadmm_settings_set_time_limit(ctx->settings, left > 1e-6 ? left : 1e-6);
     if (rc == CADMM_OK) rc = cadmm_solver_update_settings(ctx->solver, ctx->settings);
     if (rc == CADMM_OK) rc = cadmm_settings_set_time_limit(ctx->settings, ctx->opt.time_limit);
@@ -1427,7 +1431,6 @@ static cadmm_result rebuild(cadmm_ode *ctx) {
  * with cadmm_solver_update_joint_rows when a bound or a compliance changed: numeric
  * refactorization only. Then warm starts and solves, within the time limit. */
 static cadmm_result solve_step(cadmm_ode *ctx, cadmm_ode_step_info *info) {
-    const double start = seconds_now();
     cadmm_result rc;
     bool joints = ctx->n_rows > 0;
     info->rebuilt = !same_pattern(ctx);
@@ -1474,7 +1477,7 @@ static cadmm_result solve_step(cadmm_ode *ctx, cadmm_ode_step_info *info) {
             if (rc != CADMM_OK) return fail_cadmm(ctx, rc, "cadmm_solver_warm_start");
         }
     }
-    rc = limit_solve(ctx, start);
+    rc = limit_solve(ctx);
     if (rc != CADMM_OK) return rc;
     rc = cadmm_solver_solve(ctx->solver, &info->status);
     if (rc != CADMM_OK) return fail_cadmm(ctx, rc, "cadmm_solver_solve");
@@ -1541,9 +1544,11 @@ cadmm_result cadmm_ode_solve(cadmm_ode *ctx, cadmm_ode_step_info *info) {
     *info = (cadmm_ode_step_info){.contacts = ctx->n_contacts, .joints = ctx->n_joints,
                                   .joint_rows = ctx->n_rows, .bodies = ctx->n_slots};
     bool solve = ctx->n_contacts > 0 || ctx->n_rows > 0;
+    double solved_at = seconds_now();
     if (solve) {
         cadmm_result rc = solve_step(ctx, info);
         if (rc != CADMM_OK) return rc;
+        solved_at = seconds_now();
         fill_feedback(ctx);
     }
     /* Bodies in the problem take cadmm's velocities, the others move freely: M v = f. */
@@ -1574,6 +1579,7 @@ cadmm_result cadmm_ode_solve(cadmm_ode *ctx, cadmm_ode_step_info *info) {
     if (ctx->n_contacts) memcpy(ctx->previous.data, cs, ctx->n_contacts * sizeof(contact));
     ctx->n_previous = ctx->n_contacts;
     ctx->world = NULL; /* a step consumes its assembly */
+    ctx->after_solve = seconds_now() - solved_at;
     return CADMM_OK;
 }
 

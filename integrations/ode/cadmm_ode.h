@@ -81,9 +81,11 @@ typedef struct cadmm_ode_options {
                           * velocities (the joint rows' multipliers start from zero) */
     double match_radius; /* a previous contact point farther than this is not matched (m) */
     uint32_t max_iterations; /* cadmm's iteration limit; 0 for cadmm's default */
-    double time_limit;   /* seconds per cadmm_ode_solve, building the solver included; 0 for
-                          * none. With one, cadmm starts with Gauss-Seidel sweeps that need no
-                          * factorization and hands back its best answer measured in time. */
+    double time_limit;   /* seconds per step, from cadmm_ode_assemble to the end of
+                          * cadmm_ode_solve (building the solver, and the last step's time
+                          * after its solve, counted in); 0 for none. With one, cadmm starts
+                          * with Gauss-Seidel sweeps that need no factorization and hands back
+                          * its best answer measured in time. */
 } cadmm_ode_options;
 
 /* What one step did. */

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Two builds of libcadmm side by side in the Bullet driver: for each scene and seed, Bullet's
-100 iterations (SI100) run first; then cadmm with each library (through LD_LIBRARY_PATH, the
+"""Two builds of libcadmm side by side in the Bullet or ODE driver: for each scene and seed, the
+engine's own solver at 100 iterations (SI100: Bullet's sequential impulse, or ODE's QuickStep)
+runs first; then cadmm with each library (through LD_LIBRARY_PATH, the
 order alternating with the seed) at 1e-4 (or --tolerance), under SI100's mean step as the
 budget unless other driver arguments are given, each step's error compared with SI100's at
 the same step.
@@ -39,12 +40,17 @@ ap.add_argument("--tolerance", default="1e-4", help="cadmm's tolerance on both s
 ap.add_argument("--out", default="ab.jsonl")
 a = ap.parse_args()
 work = tempfile.mkdtemp(prefix="ab-traces-")  # the drivers' per-step CSVs
+# The engine's own solver at 100 iterations: ODE's QuickStep with the ODE driver, Bullet's
+# sequential impulse otherwise.
+peer_args = (["--solver", "ode-quickstep", "--ode-iterations", "100"]
+             if "ode" in os.path.basename(a.driver) else
+             ["--solver", "bullet", "--bullet-iterations", "100"])
 with open(a.out, "a") as log:
     for scene in a.scenes.split(","):
         for seed in map(int, a.seeds.split(",")):
             peer = os.path.join(work, f"{scene}-{seed}-si100.csv")
-            si100 = eb.run(a.driver, scene, ["--solver", "bullet", "--bullet-iterations", "100",
-                                             "--seed", str(seed)], a.seconds, 900, peer)
+            si100 = eb.run(a.driver, scene, peer_args + ["--seed", str(seed)], a.seconds, 900,
+                           peer)
             budget = si100["mean_solve_ms"]
             limit = a.args.split() or [a.budget_option, f"{budget / 1e3:.6g}"]
             for name in ("before", "after") if seed % 2 else ("after", "before"):
@@ -63,7 +69,7 @@ with open(a.out, "a") as log:
                 log.write(json.dumps(r) + "\n")
                 log.flush()
                 print(f"{scene} {seed} {name}: budget {budget:.3f} ms, mean {r['mean_solve_ms']:.3f},"
-                      f" median {r['median_solve_ms']:.3f}, setup {r['mean_setup_ms']:.3f},"
+                      f" median {r['median_solve_ms']:.3f}, setup {r.get('mean_setup_ms', float('nan')):.3f},"
                       f" longest {r['max_solve_ms']:.3f},"
                       f" within 1.1x budget {r['steps_within_budget']:.0%},"
                       f" below SI100 {r['steps_below_peer']:.0%}"

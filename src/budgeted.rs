@@ -5,7 +5,7 @@
 //! factorizations are built only when the sweeps stall with time left
 //! (docs/algorithms.md §17).
 
-use crate::gauss_seidel::{GaussSeidel, SweepLimits, SweepOutcome};
+use crate::gauss_seidel::{GaussSeidel, SweepLimits, SweepOutcome, Yield};
 use crate::measure::MeasureWork;
 use crate::problem::{check_len, GlobalProblem, KeptValues, NewValues, Problem, ProblemRef};
 use crate::settings::{Settings, VariantChoice};
@@ -33,9 +33,16 @@ impl BudgetedStart {
     /// problem is global, with M made of small symmetric blocks; `None` otherwise (a named
     /// variant runs as named).
     pub(crate) fn sweeps_for(problem: &Problem, settings: &Settings) -> Option<GaussSeidel> {
+        Self::asked_by(settings)
+            .then(|| Self::sweeps_of(problem))
+            .flatten()
+    }
+
+    /// The sweeps for `problem` when it is global, with M made of small symmetric blocks.
+    pub(crate) fn sweeps_of(problem: &Problem) -> Option<GaussSeidel> {
         match problem {
-            Problem::Global(g) if Self::asked_by(settings) => GaussSeidel::new(g),
-            _ => None,
+            Problem::Global(g) => GaussSeidel::new(g),
+            Problem::Local(_) => None,
         }
     }
 
@@ -165,6 +172,7 @@ impl BudgetedStart {
         max_sweeps: usize,
         interrupt: Option<&AtomicBool>,
         handover_sweeps: f64,
+        yields: Yield,
     ) -> SweepOutcome {
         self.used_warm = self.warm.take();
         let limits = SweepLimits {
@@ -173,6 +181,7 @@ impl BudgetedStart {
             max_sweeps,
             interrupt,
             handover_sweeps,
+            yields,
         };
         let r0 = self.used_warm.as_ref().map(|(r, _)| r.as_slice());
         let v0 = self.used_warm.as_ref().and_then(|(_, v)| v.as_deref());

@@ -213,6 +213,11 @@ impl CoupledSolver {
         }
     }
 
+    /// True when the v-update is solved matrix-free (see `ContactForm::matrix_free`).
+    pub(crate) fn matrix_free(&self) -> bool {
+        self.form.matrix_free()
+    }
+
     /// A copy of the problem as the solver holds it.
     pub(crate) fn problem_owned(&self) -> Problem {
         match self.form.problem() {

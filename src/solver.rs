@@ -7,11 +7,12 @@
 
 use crate::budgeted::BudgetedStart;
 use crate::coupled::{CoupledSolver, NewtonFirst};
+use crate::gauss_seidel::Yield;
 use crate::problem::{NewValues, Problem};
 use crate::scene::islands::{partition_global, partition_local};
 use crate::scene::offered::{Offer, Offered};
 use crate::scene::{Scene, ScenePlan};
-use crate::settings::{Resolved, Settings};
+use crate::settings::{LinearSolver, Resolved, Settings, VariantChoice};
 use crate::tuning::{
     BUDGET_JOINTED_AFTER, FIRST_STEP_HANDOVER_SWEEPS, GAUSS_SEIDEL_HANDOVER_SWEEPS,
     ROUND_OFF_MARGIN,
@@ -208,6 +209,31 @@ fn working_settings(user: &Settings) -> Settings {
     }
 }
 
+/// Gauss-Seidel sweeps before a problem solved whole on the matrix-free backend `auto`
+/// picked, with the variant `auto` and no time limit (a backend or variant named runs as
+/// named): there an ADMM iteration costs tens of products with `M` and
+/// `H`, ten sweeps' time or more, and at an engine's tolerances the sweeps often finish
+/// first (docs/algorithms.md §17). They start from the layout's copy of the problem; the
+/// layout is kept for their handover.
+fn sweeps_before_matrix_free(
+    layout: &Layout,
+    settings: &Settings,
+) -> Result<Option<Box<BudgetedStart>>, Error> {
+    let Layout::Whole(coupled) = layout else {
+        return Ok(None);
+    };
+    let picked =
+        settings.variant == VariantChoice::Auto && settings.linear_solver == LinearSolver::Auto;
+    if !picked || !coupled.matrix_free() {
+        return Ok(None);
+    }
+    let problem = coupled.problem_owned();
+    match BudgetedStart::sweeps_of(&problem) {
+        Some(sweeps) => Ok(Some(Box::new(BudgetedStart::new(problem, sweeps)?))),
+        None => Ok(None),
+    }
+}
+
 impl Solver {
     /// Validates the settings, finds the contact islands (unless switched off), picks each
     /// island's first rho and factorizes (symbolic analysis and first numeric
@@ -242,7 +268,8 @@ impl Solver {
             }
             None => {
                 let (layout, n) = Layout::new(problem, &settings, replaced)?;
-                (Some(layout), None, n)
+                let sweeps = sweeps_before_matrix_free(&layout, &settings)?;
+                (Some(layout), sweeps, n)
             }
         };
         let mut solver = Self {
@@ -484,12 +511,19 @@ impl Solver {
             true => FIRST_STEP_HANDOVER_SWEEPS,
             false => GAUSS_SEIDEL_HANDOVER_SWEEPS,
         };
+        // Without a time limit the sweeps come before a matrix-free solve
+        // (`sweeps_before_matrix_free`), and give way by its cost.
+        let yields = match self.inner.time_limit.is_finite() {
+            true => Yield::Patience,
+            false => Yield::CoupledCost,
+        };
         let swept = budgeted.run(
             self.inner.tolerance,
             deadline,
             self.inner.max_iterations,
             interrupt,
             handover_sweeps,
+            yields,
         );
         budgeted.write_solution(&mut self.solution);
         match swept.status {

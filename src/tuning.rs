@@ -69,6 +69,16 @@ pub const JOINT_BLOCK_FLOPS: f64 = 2e5;
 /// would need 1 024 sweeps, 97 ms, where ADMM needs 28 ms).
 pub const GAUSS_SEIDEL_PATIENCE: f64 = 3.0;
 
+/// Sweeps before a matrix-free coupled solve are first judged for a handover after this
+/// many (`gauss_seidel::Yield::CoupledCost`).
+pub const GAUSS_SEIDEL_JUDGED_LATE: usize = 128;
+
+/// The least a matrix-free coupled solve costs, in Gauss-Seidel sweeps' time: piles of
+/// 25 000 spheres took 550 to 2 250 ADMM iterations at 1e-4, each of 3 to 4 conjugate-
+/// gradient iterations (a product with M, H and H^T, and the preconditioner), about ten
+/// sweeps' time (docs/perf/piles-2026-11-27).
+pub const GAUSS_SEIDEL_MATRIX_FREE_SWEEPS: f64 = 5000.0;
+
 /// Gauss-Seidel sweeps hand over only with at least this many sweeps' time left: the
 /// coupled solve must first be built (a dumped wall step: 1 to 4 ms, 10 to 60 sweeps),
 /// and ADMM needs 600 to 1 600 iterations of 3 to 4 sweeps' time each at 1e-4 on the

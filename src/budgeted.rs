@@ -26,6 +26,8 @@ pub(crate) struct BudgetedStart {
     kept: KeptValues,
     /// The problem and sweeps before the last rebuild, whose memory the next one reuses.
     spare: Option<(GlobalProblem, GaussSeidel)>,
+    /// When the sweeps give way: by an engine's budget, or before a matrix-free solve.
+    yields: Yield,
 }
 
 impl BudgetedStart {
@@ -54,7 +56,11 @@ impl BudgetedStart {
     /// The first phase of `problem` with its `sweeps` ([`BudgetedStart::sweeps_for`]).
     /// M's blocks are factorized here, so a matrix that is not positive definite is
     /// reported now, as the coupled solver would.
-    pub(crate) fn new(problem: Problem, mut sweeps: GaussSeidel) -> Result<Self, Error> {
+    pub(crate) fn new(
+        problem: Problem,
+        mut sweeps: GaussSeidel,
+        yields: Yield,
+    ) -> Result<Self, Error> {
         let Problem::Global(problem) = problem else {
             unreachable!("sweeps_for takes global problems only")
         };
@@ -67,6 +73,7 @@ impl BudgetedStart {
             used_warm: None,
             kept: KeptValues::default(),
             spare: None,
+            yields,
         })
     }
 
@@ -172,7 +179,6 @@ impl BudgetedStart {
         max_sweeps: usize,
         interrupt: Option<&AtomicBool>,
         handover_sweeps: f64,
-        yields: Yield,
     ) -> SweepOutcome {
         self.used_warm = self.warm.take();
         let limits = SweepLimits {
@@ -181,12 +187,17 @@ impl BudgetedStart {
             max_sweeps,
             interrupt,
             handover_sweeps,
-            yields,
+            yields: self.yields,
         };
         let r0 = self.used_warm.as_ref().map(|(r, _)| r.as_slice());
         let v0 = self.used_warm.as_ref().and_then(|(_, v)| v.as_deref());
         self.sweeps
             .run(&self.problem, r0, v0, limits, &mut self.measure)
+    }
+
+    /// When the sweeps give way to the coupled solve.
+    pub(crate) fn yields(&self) -> Yield {
+        self.yields
     }
 
     /// Takes the warm start given since the last run, if any, as a run would, for a solve

@@ -229,7 +229,10 @@ fn sweeps_before_matrix_free(
     }
     let problem = coupled.problem_owned();
     match BudgetedStart::sweeps_of(&problem) {
-        Some(sweeps) => Ok(Some(Box::new(BudgetedStart::new(problem, sweeps)?))),
+        Some(sweeps) => {
+            let start = BudgetedStart::new(problem, sweeps, Yield::CoupledCost)?;
+            Ok(Some(Box::new(start)))
+        }
         None => Ok(None),
     }
 }
@@ -263,7 +266,7 @@ impl Solver {
         let (layout, budgeted, n_islands) = match BudgetedStart::sweeps_for(&problem, &settings) {
             Some(sweeps) => {
                 let islands = usize::from(problem.n_contacts() > 0);
-                let start = BudgetedStart::new(problem, sweeps)?;
+                let start = BudgetedStart::new(problem, sweeps, Yield::Patience)?;
                 (None, Some(Box::new(start)), islands)
             }
             None => {
@@ -511,19 +514,12 @@ impl Solver {
             true => FIRST_STEP_HANDOVER_SWEEPS,
             false => GAUSS_SEIDEL_HANDOVER_SWEEPS,
         };
-        // Without a time limit the sweeps come before a matrix-free solve
-        // (`sweeps_before_matrix_free`), and give way by its cost.
-        let yields = match self.inner.time_limit.is_finite() {
-            true => Yield::Patience,
-            false => Yield::CoupledCost,
-        };
         let swept = budgeted.run(
             self.inner.tolerance,
             deadline,
             self.inner.max_iterations,
             interrupt,
             handover_sweeps,
-            yields,
         );
         budgeted.write_solution(&mut self.solution);
         match swept.status {
@@ -539,6 +535,13 @@ impl Solver {
     /// from the solve's warm start if it had one) solve within the time left, and the
     /// better answer by the measure is handed back.
     fn hand_over(&mut self, sweeps: usize, swept_error: f64, t0: Instant) -> Result<Status, Error> {
+        let for_good = (self.budgeted.as_ref()).is_some_and(|b| b.yields() == Yield::CoupledCost);
+        if for_good && self.layout.is_some() {
+            // Sweeps before a matrix-free solve (`sweeps_before_matrix_free`) that gave way
+            // give way for good: their copy of the problem goes before ADMM takes its
+            // memory (with both, a lattice pile of 1e5 contacts peaked 16% higher).
+            self.budgeted = None;
+        }
         if self.layout.is_none() {
             let built = Instant::now();
             let problem = self.budgeted.as_ref().expect("budgeted").problem();

@@ -70,7 +70,8 @@ fn auto_factorizes_small_systems_and_goes_matrix_free_on_fill() {
 
 /// Where `auto` goes matrix-free (without a time limit), Gauss-Seidel sweeps come first:
 /// at 1e-4 they solve the 2 800-contact pile alone; at 1e-6 they give way to ADMM, which
-/// solves it; the direct backend, asked for, has no sweeps. Measured independently.
+/// solves it, and for good; the direct backend, asked for, has no sweeps. Measured
+/// independently.
 #[test]
 fn sweeps_come_before_a_matrix_free_solve() {
     let large = scenes::pile(10, 10, 10).global();
@@ -85,6 +86,23 @@ fn sweeps_come_before_a_matrix_free_solve() {
         handed.gauss_seidel_sweeps > 0 && handed.iterations > 0,
         "{handed:?}"
     );
+    // Sweeps that gave way give way for good: the same solver's next solve is ADMM's.
+    let settings = Settings {
+        tolerance: 1e-6,
+        ..Settings::default()
+    };
+    let mut solver = Solver::new(Problem::Global(large.clone()), settings).unwrap();
+    solver.solve().unwrap();
+    assert!(solver.stats().gauss_seidel_sweeps > 0);
+    assert_eq!(solver.solve().unwrap(), Status::Solved);
+    assert_eq!(
+        solver.stats().gauss_seidel_sweeps,
+        0,
+        "{:?}",
+        solver.stats()
+    );
+    let s = solver.solution();
+    assert!(common::global_error_sparse(&large, &s.r, &s.v) <= 1e-6);
     let (direct, error) = solve(&large, LinearSolver::Direct, 1e-4);
     assert!(error <= 1e-4, "error {error:e}");
     assert_eq!(direct.gauss_seidel_sweeps, 0, "{direct:?}");

@@ -512,8 +512,8 @@ pub(crate) struct SweepLimits<'a> {
 }
 
 /// When the sweeps give way to the coupled solve (ADMM and Newton), judged at each
-/// doubling of the sweeps by the time they would still need at their last doubling's
-/// rate.
+/// doubling of the sweeps by the time they would still need at the rate of their last
+/// doubling (of the last two, before a matrix-free solve).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Yield {
     /// Under an engine's budget: from the 8th sweep, once that time exceeds

@@ -207,6 +207,8 @@ pub struct MeasureWork {
     gv: Vec<f64>,
     /// Least-squares joint multipliers, when none are supplied.
     ls: Vec<f64>,
+    /// The free velocities `diag(M)^-1 f` (the joint term's scale).
+    free: Vec<f64>,
     pub(crate) floors: Floors,
     /// The denominators of the last global evaluation.
     pub(crate) scales: Scales,
@@ -284,7 +286,7 @@ pub fn global_error_with(
         let scale = SumSq::of_slice(&work.gv)
             .norm()
             .max(SumSq::of_slice(&j.b).norm())
-            .max(free_joint_velocity(p, &j.g))
+            .max(free_joint_velocity(p, &j.g, &mut work.free))
             .max(bounded_multipliers(j, lambda));
         let gv = &work.gv;
         let res =
@@ -337,8 +339,9 @@ fn bounded_multipliers(j: &Joints, lambda: &[f64]) -> f64 {
 /// The velocities the joint rows see under free motion, `|| |G|^T |diag(M)^-1 f| ||`: the
 /// joint term's scale from the data, for an answer at rest (a chain hanging still has
 /// `G^T v = 0` and `b = 0`, and only this says how small its residual must be).
-fn free_joint_velocity(p: &GlobalProblem, g: &crate::csc::CscMatrix) -> f64 {
-    free_row_velocity(p, g, |_| 0.0)
+fn free_joint_velocity(p: &GlobalProblem, g: &crate::csc::CscMatrix, free: &mut Vec<f64>) -> f64 {
+    free_velocity(p, free);
+    free_row_velocity(g, free, |_| 0.0)
 }
 
 /// The contact velocities under free motion in the same sense, `|| |H|^T |diag(M)^-1 f| +
@@ -347,22 +350,25 @@ fn free_joint_velocity(p: &GlobalProblem, g: &crate::csc::CscMatrix) -> f64 {
 /// together (a wall's row in free fall) has `u = 0` and `r = 0` at its answer, so its own
 /// contact denominator is round-off, and only a floor from the data ends its solve.
 pub(crate) fn free_contact_velocity(p: &GlobalProblem) -> f64 {
-    free_row_velocity(p, &p.h, |k| p.w[k].abs())
+    let mut free = Vec::new();
+    free_velocity(p, &mut free);
+    free_row_velocity(&p.h, &free, |k| p.w[k].abs())
 }
 
-/// `|| |J|^T |diag(M)^-1 f| + extra ||` over the columns of `j`.
-fn free_row_velocity(
-    p: &GlobalProblem,
-    j: &crate::csc::CscMatrix,
-    extra: impl Fn(usize) -> f64,
-) -> f64 {
-    // A diagonal that is not positive (M is then not positive definite either, which the
-    // solver refuses) gives no free velocity.
-    let free = |i: usize| match p.m.diagonal_entry(i) {
+/// `diag(M)^-1 f` into `free`, one diagonal look-up per velocity (not one per entry of
+/// the rows that read it). A diagonal that is not positive (M is then not positive
+/// definite either, which the solver refuses) gives no free velocity.
+fn free_velocity(p: &GlobalProblem, free: &mut Vec<f64>) {
+    free.clear();
+    free.extend((0..p.n()).map(|i| match p.m.diagonal_entry(i) {
         d if d > 0.0 => p.f[i] / d,
         _ => 0.0,
-    };
-    let row = |k: usize| j.col(k).map(|(i, jik)| (jik * free(i)).abs()).sum::<f64>() + extra(k);
+    }));
+}
+
+/// `|| |J|^T |free| + extra ||` over the columns of `j`.
+fn free_row_velocity(j: &crate::csc::CscMatrix, free: &[f64], extra: impl Fn(usize) -> f64) -> f64 {
+    let row = |k: usize| j.col(k).map(|(i, jik)| (jik * free[i]).abs()).sum::<f64>() + extra(k);
     SumSq::of(|| (0..j.ncols()).map(row)).norm()
 }
 

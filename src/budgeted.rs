@@ -64,6 +64,7 @@ impl BudgetedStart {
         let Problem::Global(problem) = problem else {
             unreachable!("sweeps_for takes global problems only")
         };
+        // Symmetric blocks: `sweeps` were fitted to these values.
         sweeps.take_values(&problem)?;
         Ok(Self {
             measure: MeasureWork::global(&problem),
@@ -96,7 +97,9 @@ impl BudgetedStart {
                 None => return Ok(false),
             },
         };
-        sweeps.take_values(&problem)?;
+        if !sweeps.take_values(&problem)? {
+            return Ok(false);
+        }
         std::mem::swap(&mut self.problem, &mut problem);
         std::mem::swap(&mut self.sweeps, &mut sweeps);
         self.spare = Some((problem, sweeps));
@@ -146,11 +149,7 @@ impl BudgetedStart {
     /// Takes the problem's current values into the sweeps; false when M lost its symmetry.
     fn take_values(&mut self) -> Result<bool, Error> {
         self.warm = None;
-        if !self.problem.m.is_symmetric() {
-            return Ok(false);
-        }
-        self.sweeps.take_values(&self.problem)?;
-        Ok(true)
+        self.sweeps.take_values(&self.problem)
     }
 
     /// Starts the next run of sweeps from the impulses `r` (the sweeps' velocities follow

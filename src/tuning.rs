@@ -63,6 +63,14 @@ pub const BUDGET_JOINTED_AFTER: usize = 2;
 /// steps below, against 24 to 37% (docs/perf/engine-budget-2026-11-28).
 pub const JOINT_BLOCK_FLOPS: f64 = 2e5;
 
+/// The profile (multiply-adds of its factorization) above which the joint rows solved
+/// together are reordered first (reverse Cuthill-McKee). On a 20-link chain handed in
+/// Bullet's order (9 000, against about 1 000 reordered) ordering cost as many
+/// instructions as a rebuilt step's sweeps then saved; an order an engine scrambled on a
+/// longer chain or tree (the cost grows with the square of its width) may otherwise pass
+/// [`JOINT_BLOCK_FLOPS`] and leave its rows to one-at-a-time sweeps.
+pub const JOINT_BLOCK_REORDERED_FLOPS: f64 = 2e4;
+
 /// Gauss-Seidel sweeps go on while, at the rate of their last doubling, they would meet
 /// the tolerance within this many times the time they took so far (two more doublings at
 /// most); beyond that ADMM and Newton finish sooner (the wall at rest at 1e-4: the sweeps

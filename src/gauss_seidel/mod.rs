@@ -130,15 +130,15 @@ impl GaussSeidel {
         true
     }
 
-    /// Inverts M's blocks (an error when one is not positive definite, or M is not
-    /// symmetric) and computes each contact's and joint row's data, for `p` (the pattern
-    /// the sweeps were built for).
-    pub(crate) fn take_values(&mut self, p: &GlobalProblem) -> Result<(), Error> {
+    /// Inverts M's blocks (an error when one is not positive definite) and computes each
+    /// contact's and joint row's data, for `p` (the pattern the sweeps were built for).
+    /// Ok(false), nothing else taken, when a block of M is no longer symmetric: the sweeps
+    /// no longer suit the problem. (M is block diagonal here, so its blocks' symmetry is
+    /// its own, judged without a transpose.)
+    pub(crate) fn take_values(&mut self, p: &GlobalProblem) -> Result<bool, Error> {
         self.mass.take_values(&p.m);
         if !self.mass.is_symmetric() {
-            return Err(Error::Unsupported(
-                "Gauss-Seidel sweeps: M is no longer symmetric".into(),
-            ));
+            return Ok(false);
         }
         if self.mass.invert(0.0, &self.no_shift).is_err() {
             return Err(Error::NotPositiveDefinite { field: "M" });
@@ -156,22 +156,13 @@ impl GaussSeidel {
             }
             self.joint_block.take_values(j, rows);
         }
+        // The rows not solved together, in order.
+        let together = &self.joint_block;
         self.single_rows.clear();
-        let together = match self.joint_block.ready() {
-            true => self.joint_block.rows(),
-            false => &[],
-        };
-        // Both ascending: the rows not solved together, in order.
-        let mut next = together.iter().peekable();
-        for k in 0..self.joint_gain.len() {
-            match next.peek() {
-                Some(&&t) if t == k => {
-                    next.next();
-                }
-                _ => self.single_rows.push(k),
-            }
-        }
-        Ok(())
+        self.single_rows.extend(
+            (0..self.joint_gain.len()).filter(|&k| !(together.ready() && together.solves(k))),
+        );
+        Ok(true)
     }
 
     /// Sweeps from the impulses `r0` (zero when `None`; the joint multipliers from zero),

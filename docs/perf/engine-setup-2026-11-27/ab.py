@@ -7,7 +7,7 @@ budget unless other driver arguments are given, each step's error compared with 
 the same step.
 
     python3 ab.py --driver build-bullet/cadmm_bullet_stack --before DIR --after DIR \\
-        [--scenes wall,bin,chain,big-pyramid] [--seeds 1,2,3] [--tolerance 1e-8] \\
+        [--scenes wall,bin,chain,big-pyramid] [--seeds 1,2,3] [--rounds 2] [--tolerance 1e-8] \\
         [--args "--time-limit 0.016"] [--budget-option=--step-time-limit] [--out ab.jsonl]
 
 DIR holds a libcadmm.so.0. --before-driver and --after-driver run that side with another
@@ -37,6 +37,8 @@ ap.add_argument("--budget-option", default="--time-limit",
                 help="the driver option the budget is given by (--step-time-limit: per step)")
 ap.add_argument("--seconds", type=float, default=2.0)
 ap.add_argument("--tolerance", default="1e-4", help="cadmm's tolerance on both sides")
+ap.add_argument("--rounds", type=int, default=1,
+                help="runs of each side per seed, the order alternating from round to round")
 ap.add_argument("--out", default="ab.jsonl")
 a = ap.parse_args()
 work = tempfile.mkdtemp(prefix="ab-traces-")  # the drivers' per-step CSVs
@@ -53,8 +55,10 @@ with open(a.out, "a") as log:
                            peer)
             budget = si100["mean_solve_ms"]
             limit = a.args.split() or [a.budget_option, f"{budget / 1e3:.6g}"]
-            for name in ("before", "after") if seed % 2 else ("after", "before"):
-                trace = os.path.join(work, f"{scene}-{seed}-{name}.csv")
+            sides = [("before", "after") if (seed + k) % 2 else ("after", "before")
+                     for k in range(a.rounds)]
+            for rnd, name in ((k, n) for k, pair in enumerate(sides) for n in pair):
+                trace = os.path.join(work, f"{scene}-{seed}-{name}-{rnd}.csv")
                 env_lib = os.environ.get("LD_LIBRARY_PATH")
                 os.environ["LD_LIBRARY_PATH"] = getattr(a, name)
                 driver = getattr(a, f"{name}_driver") or a.driver
@@ -65,7 +69,7 @@ with open(a.out, "a") as log:
                 else:
                     os.environ["LD_LIBRARY_PATH"] = env_lib
                 r.update(eb.compare_steps(trace, peer), **eb.budget_steps(trace, budget),
-                         label=name, scene=scene, seed=seed, budget_ms=budget, args=limit)
+                         label=name, scene=scene, seed=seed, round=rnd, budget_ms=budget, args=limit)
                 log.write(json.dumps(r) + "\n")
                 log.flush()
                 print(f"{scene} {seed} {name}: budget {budget:.3f} ms, mean {r['mean_solve_ms']:.3f},"

@@ -247,22 +247,26 @@ const PIVOT_SHARE: f64 = 1e-10;
 /// not positive to working precision.
 fn envelope_cholesky(s: &mut [f64], first: &[usize], start: &[usize]) -> bool {
     for (i, &fi) in first.iter().enumerate() {
-        let (done, rest) = s.split_at_mut(start[i]);
-        let row = &mut rest[..=i - fi];
+        // Entry (i, m) of the profile sits at `row_i + m`.
+        let row_i = start[i] - fi;
         // l_ik = (s_ik - sum_m l_im l_km) / l_kk over the columns both rows hold.
         for k in fi..i {
-            let (fk, sk) = (first[k], start[k]);
-            let from = fi.max(fk);
-            let (row_i, row_k) = (&row[from - fi..k - fi], &done[sk + from - fk..sk + k - fk]);
-            let dot: f64 = row_i.iter().zip(row_k).map(|(a, b)| a * b).sum();
-            row[k - fi] = (row[k - fi] - dot) / done[start[k + 1] - 1];
+            let row_k = start[k] - first[k];
+            let mut x = s[row_i + k];
+            for m in fi.max(first[k])..k {
+                x -= s[row_i + m] * s[row_k + m];
+            }
+            s[row_i + k] = x / s[row_k + k];
         }
-        let diagonal = row[i - fi];
-        let d = diagonal - row[..i - fi].iter().map(|x| x * x).sum::<f64>();
+        let diagonal = s[row_i + i];
+        let mut d = diagonal;
+        for m in fi..i {
+            d -= s[row_i + m] * s[row_i + m];
+        }
         if !(d > PIVOT_SHARE * diagonal && d.is_finite()) {
             return false;
         }
-        row[i - fi] = d.sqrt();
+        s[row_i + i] = d.sqrt();
     }
     true
 }
@@ -270,20 +274,19 @@ fn envelope_cholesky(s: &mut [f64], first: &[usize], start: &[usize]) -> bool {
 /// Solves `L L^T x = y` in place with the factor of [`envelope_cholesky`].
 fn envelope_solve(l: &[f64], first: &[usize], start: &[usize], y: &mut [f64]) {
     for (i, &fi) in first.iter().enumerate() {
-        let row = &l[start[i]..start[i + 1]];
-        let dot: f64 = row[..i - fi]
-            .iter()
-            .zip(&y[fi..i])
-            .map(|(a, b)| a * b)
-            .sum();
-        y[i] = (y[i] - dot) / row[i - fi];
+        let row_i = start[i] - fi;
+        let mut x = y[i];
+        for m in fi..i {
+            x -= l[row_i + m] * y[m];
+        }
+        y[i] = x / l[row_i + i];
     }
     for (i, &fi) in first.iter().enumerate().rev() {
-        let row = &l[start[i]..start[i + 1]];
-        let x = y[i] / row[i - fi];
+        let row_i = start[i] - fi;
+        let x = y[i] / l[row_i + i];
         y[i] = x;
-        for (ym, lm) in y[fi..i].iter_mut().zip(row) {
-            *ym -= lm * x;
+        for m in fi..i {
+            y[m] -= l[row_i + m] * x;
         }
     }
 }

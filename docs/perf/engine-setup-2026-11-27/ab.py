@@ -8,6 +8,7 @@ the same step.
 
     python3 ab.py --driver build-bullet/cadmm_bullet_stack --before DIR --after DIR \\
         [--scenes wall,bin,chain,big-pyramid] [--seeds 1,2,3] [--rounds 2] [--tolerance 1e-8] \\
+        [--scene-args "--count 30"] \\
         [--args "--time-limit 0.016"] [--budget-option=--step-time-limit] [--out ab.jsonl]
 
 DIR holds a libcadmm.so.0. --before-driver and --after-driver run that side with another
@@ -37,6 +38,8 @@ ap.add_argument("--budget-option", default="--time-limit",
                 help="the driver option the budget is given by (--step-time-limit: per step)")
 ap.add_argument("--seconds", type=float, default=2.0)
 ap.add_argument("--tolerance", default="1e-4", help="cadmm's tolerance on both sides")
+ap.add_argument("--scene-args", default="",
+                help="driver arguments for every run, the engine's too (--count 30: a scene's size)")
 ap.add_argument("--rounds", type=int, default=1,
                 help="runs of each side per seed, the order alternating from round to round")
 ap.add_argument("--out", default="ab.jsonl")
@@ -51,8 +54,8 @@ with open(a.out, "a") as log:
     for scene in a.scenes.split(","):
         for seed in map(int, a.seeds.split(",")):
             peer = os.path.join(work, f"{scene}-{seed}-si100.csv")
-            si100 = eb.run(a.driver, scene, peer_args + ["--seed", str(seed)], a.seconds, 900,
-                           peer)
+            si100 = eb.run(a.driver, scene, peer_args + ["--seed", str(seed)] + a.scene_args.split(),
+                           a.seconds, 900, peer)
             budget = si100["mean_solve_ms"]
             limit = a.args.split() or [a.budget_option, f"{budget / 1e3:.6g}"]
             sides = [("before", "after") if (seed + k) % 2 else ("after", "before")
@@ -63,13 +66,15 @@ with open(a.out, "a") as log:
                 os.environ["LD_LIBRARY_PATH"] = getattr(a, name)
                 driver = getattr(a, f"{name}_driver") or a.driver
                 r = eb.run(driver, scene, ["--solver", "cadmm", "--tolerance", a.tolerance,
-                                             "--seed", str(seed)] + limit, a.seconds, 900, trace)
+                                             "--seed", str(seed)] + a.scene_args.split() + limit,
+                           a.seconds, 900, trace)
                 if env_lib is None:
                     del os.environ["LD_LIBRARY_PATH"]
                 else:
                     os.environ["LD_LIBRARY_PATH"] = env_lib
                 r.update(eb.compare_steps(trace, peer), **eb.budget_steps(trace, budget),
-                         label=name, scene=scene, seed=seed, round=rnd, budget_ms=budget, args=limit)
+                         label=name, scene=scene, seed=seed, round=rnd, budget_ms=budget,
+                         args=a.scene_args.split() + limit)
                 log.write(json.dumps(r) + "\n")
                 log.flush()
                 print(f"{scene} {seed} {name}: budget {budget:.3f} ms, mean {r['mean_solve_ms']:.3f},"

@@ -213,8 +213,8 @@ fn working_settings(user: &Settings) -> Settings {
 /// picked, with the variant `auto` and no time limit (a backend or variant named runs as
 /// named): there an ADMM iteration costs tens of products with `M` and
 /// `H`, ten sweeps' time or more, and at an engine's tolerances the sweeps often finish
-/// first (docs/algorithms.md §14, the sweeps §17). They start from the layout's copy of the problem; the
-/// layout is kept for their handover.
+/// first (docs/algorithms.md §14, the sweeps §17). They start from the layout's copy of
+/// the problem; the layout is kept for their handover.
 fn sweeps_before_matrix_free(
     layout: &Layout,
     settings: &Settings,

@@ -31,6 +31,8 @@ pub(super) struct JointBlock {
     on_start: Vec<usize>,
     on_block: Vec<(usize, usize)>,
     block_size: Vec<usize>,
+    /// Work space: where each block's next row goes.
+    fill: Vec<usize>,
     /// `S`, then its lower Cholesky factor, row by row within the profile.
     factor: Vec<f64>,
     /// Work space: the rows' velocities, then their step.
@@ -112,11 +114,11 @@ impl JointBlock {
         }
         self.on_block.clear();
         self.on_block.resize(self.on_start[nb], (0, 0));
-        let mut fill = self.on_start.clone();
+        self.fill.clone_from(&self.on_start);
         for (i, &k) in self.rows.iter().enumerate() {
             for (b, at) in blocks(groups.reach(k), mass) {
-                self.on_block[fill[b]] = (i, groups.offset(k) + at);
-                fill[b] += 1;
+                self.on_block[self.fill[b]] = (i, groups.offset(k) + at);
+                self.fill[b] += 1;
             }
         }
         self.block_size.clear();
@@ -128,7 +130,7 @@ impl JointBlock {
     /// which keeps the envelope of `S` narrow whatever order the engine hands its joints
     /// in (Bullet sorts its constraints by island, unstably: a 20-link chain's 60 rows came
     /// with 9 000 products in their envelope, about 1 000 in this order). Only for a profile
-    /// above [`JOINT_BLOCK_REORDERED_FLOPS`]: below it, ordering cost more than it saved.
+    /// above [`JOINT_BLOCK_REORDERED_FLOPS`]: below it, ordering cost about what it saved.
     fn order_rows(&mut self, groups: &RowGroups<1>, mass: &BlockDiagonal) {
         let p = self.rows.len();
         let (on_start, on_block) = (&self.on_start, &self.on_block);

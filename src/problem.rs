@@ -757,6 +757,20 @@ impl LocalProblem {
         self.mu.len()
     }
 
+    /// A problem of `nc` contacts on a dense pattern of W (the identity, q and mu zero),
+    /// for a solver whose values are set later: any Delassus matrix of that size fits it.
+    pub(crate) fn dense(nc: usize) -> Result<Self, Error> {
+        let m = 3 * nc;
+        let colptr = (0..=m).map(|j| j * m).collect();
+        let rowind = (0..m * m).map(|k| k % m).collect();
+        let mut values = vec![0.0; m * m];
+        for i in 0..m {
+            values[i + i * m] = 1.0;
+        }
+        let w = CscMatrix::new("W", m, m, colptr, rowind, values)?;
+        Self::new(w, vec![0.0; m], vec![0.0; nc])
+    }
+
     /// The check of an update: `next` has this problem's sizes and sparsity pattern.
     pub(crate) fn check_successor(&self, next: &LocalProblem) -> Result<(), Error> {
         check_same_sizes([0, self.n_contacts()], [0, next.n_contacts()])?;

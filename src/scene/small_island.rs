@@ -204,15 +204,7 @@ impl SmallWork {
             sized.resize_with(nc + 1, || None);
         }
         if sized[nc].is_none() {
-            let m = 3 * nc;
-            let colptr = (0..=m).map(|j| j * m).collect();
-            let rowind = (0..m * m).map(|k| k % m).collect();
-            let mut values = vec![0.0; m * m];
-            for i in 0..m {
-                values[i + i * m] = 1.0;
-            }
-            let w = CscMatrix::new("W", m, m, colptr, rowind, values)?;
-            let local = LocalProblem::new(w, vec![0.0; m], vec![0.0; nc])?;
+            let local = LocalProblem::dense(nc)?;
             let newton = LocalNewton::new(&local)?;
             let measure = MeasureWork::local(&local);
             sized[nc] = Some(Box::new(SizedNewton {

@@ -806,7 +806,9 @@ cadmm_result cadmm_settings_set_max_iterations(struct cadmm_settings *s, uint32_
  * and the variant `auto` (an engine's budget per step) starts each solve of a global
  * problem whose M is block diagonal with Gauss-Seidel sweeps, at least 4 of them, and
  * builds its islands (analysis, factorization) only if the sweeps hand over to ADMM and
- * Newton (docs/algorithms.md §17); `cadmm_stats.gauss_seidel_sweeps` counts them. Otherwise a
+ * Newton; at most 16 contacts, with every joint row an equality, are solved at once by
+ * Newton after the first sweeps when the time left allows (docs/algorithms.md §17).
+ * `cadmm_stats.gauss_seidel_sweeps` counts the sweeps. Otherwise a
  * limit that is not reached does not change the solve: it ends with the same answer,
  * bitwise, as without the limit. Errors: `CADMM_ERR_NULL_POINTER`,
  * `CADMM_ERR_INVALID_SETTING` (the settings are unchanged).
@@ -853,9 +855,10 @@ cadmm_result cadmm_settings_set_linear_solver(struct cadmm_settings *s, const ch
 cadmm_result cadmm_settings_set_trace(struct cadmm_settings *s, bool on);
 
 /**
- * Switches the semismooth Newton finishing phase on or off (docs/algorithms.md §9). By
- * default it is on for "auto" and off for the named ADMM variants; with "newton" the
- * setting is ignored. Errors: `CADMM_ERR_NULL_POINTER`.
+ * Switches the semismooth Newton finishing phase on or off (docs/algorithms.md §9), and
+ * with it Newton on few contacts under a time limit (§17). By default it is on for "auto"
+ * and off for the named ADMM variants; with "newton" the setting is ignored. Errors:
+ * `CADMM_ERR_NULL_POINTER`.
  */
 cadmm_result cadmm_settings_set_newton(struct cadmm_settings *s, bool on);
 

@@ -170,7 +170,8 @@ impl BudgetedStart {
     }
 
     /// Sweeps to `tolerance` within `deadline` and `max_sweeps`, or until `interrupt` is
-    /// set, from the warm start when one was given since the last run.
+    /// set, from the warm start when one was given since the last run; `newton` lets a
+    /// problem of few contacts be solved by Newton after the first sweeps.
     pub(crate) fn run(
         &mut self,
         tolerance: f64,
@@ -178,6 +179,7 @@ impl BudgetedStart {
         max_sweeps: usize,
         interrupt: Option<&AtomicBool>,
         handover_sweeps: f64,
+        newton: bool,
     ) -> SweepOutcome {
         self.used_warm = self.warm.take();
         let limits = SweepLimits {
@@ -187,6 +189,7 @@ impl BudgetedStart {
             interrupt,
             handover_sweeps,
             yields: self.yields,
+            newton,
         };
         let r0 = self.used_warm.as_ref().map(|(r, _)| r.as_slice());
         let v0 = self.used_warm.as_ref().and_then(|(_, v)| v.as_deref());

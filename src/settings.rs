@@ -106,8 +106,9 @@ pub struct Settings {
     pub anderson_interval: usize,
     /// Record a per-iteration trace. Default off.
     pub trace: bool,
-    /// Finish with the semismooth Newton phase; `None`: the variant's default (on for
-    /// `auto`, off for the named ADMM variants, which then run as published).
+    /// Finish with the semismooth Newton phase (and, under a time limit, solve few
+    /// contacts at once by Newton after the first sweeps); `None`: the variant's default
+    /// (on for `auto`, off for the named ADMM variants, which then run as published).
     pub newton_polish: Option<bool>,
     /// Split the problem into its contact islands and solve each on its own
     /// (docs/algorithms.md §12). Default on.

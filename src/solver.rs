@@ -7,7 +7,7 @@
 
 use crate::budgeted::BudgetedStart;
 use crate::coupled::{CoupledSolver, NewtonFirst};
-use crate::gauss_seidel::Yield;
+use crate::gauss_seidel::{SweepOutcome, Yield};
 use crate::problem::{NewValues, Problem};
 use crate::scene::islands::{partition_global, partition_local};
 use crate::scene::offered::{Offer, Offered};
@@ -520,21 +520,22 @@ impl Solver {
             self.inner.max_iterations,
             interrupt,
             handover_sweeps,
+            self.settings.newton_polish != Some(false),
         );
         budgeted.write_solution(&mut self.solution);
         match swept.status {
             Some(status) => {
-                self.collect_swept(status, swept.sweeps, swept.error, t0);
+                self.collect_swept(status, swept, t0);
                 Ok(status)
             }
-            None => self.hand_over(swept.sweeps, swept.error, t0),
+            None => self.hand_over(swept, t0),
         }
     }
 
     /// After sweeps that hand over: the islands (built now if need be, and then started
     /// from the solve's warm start if it had one) solve within the time left, and the
     /// better answer by the measure is handed back.
-    fn hand_over(&mut self, sweeps: usize, swept_error: f64, t0: Instant) -> Result<Status, Error> {
+    fn hand_over(&mut self, swept: SweepOutcome, t0: Instant) -> Result<Status, Error> {
         let for_good = (self.budgeted.as_ref()).is_some_and(|b| b.yields() == Yield::CoupledCost);
         if for_good && self.layout.is_some() {
             // Sweeps before a matrix-free solve (`sweeps_before_matrix_free`) that gave way
@@ -554,8 +555,11 @@ impl Solver {
             self.stats.islands = islands;
             self.stats.setup_seconds += built.elapsed().as_secs_f64();
         }
-        let status = self.islands_solve(swept_error, t0)?;
-        self.stats.gauss_seidel_sweeps = sweeps;
+        let status = self.islands_solve(swept.error, t0)?;
+        self.stats.gauss_seidel_sweeps = swept.sweeps;
+        self.stats.newton_iterations += swept.newton_steps;
+        self.stats.newton_factorizations += swept.newton_factorizations;
+        self.stats.newton_phases += usize::from(swept.newton_factorizations > 0);
         Ok(status)
     }
 
@@ -592,12 +596,15 @@ impl Solver {
     }
 
     /// The statistics of a solve the sweeps ended.
-    fn collect_swept(&mut self, status: Status, sweeps: usize, error: f64, t0: Instant) {
+    fn collect_swept(&mut self, status: Status, swept: SweepOutcome, t0: Instant) {
         let (islands, setup) = (self.stats.islands, self.stats.setup_seconds);
         self.stats = Stats {
             status,
-            error,
-            gauss_seidel_sweeps: sweeps,
+            error: swept.error,
+            gauss_seidel_sweeps: swept.sweeps,
+            newton_iterations: swept.newton_steps,
+            newton_factorizations: swept.newton_factorizations,
+            newton_phases: usize::from(swept.newton_factorizations > 0),
             solve_seconds: t0.elapsed().as_secs_f64(),
             islands,
             setup_seconds: setup,

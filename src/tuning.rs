@@ -21,6 +21,20 @@ pub const GAUSS_SEIDEL_INNER: usize = 1;
 /// setup had left no time for any sweep.
 pub const GAUSS_SEIDEL_FIRST_MEASURE: usize = 4;
 
+/// A budgeted solve's sweeps over at most [`DENSE_MAX`] contact rows, with every joint
+/// row solved together, try Newton on the contacts' dense Delassus form once, after
+/// [`GAUSS_SEIDEL_FIRST_MEASURE`] sweeps (`gauss_seidel/dense_contacts.rs`), for at most
+/// this many steps, to this share of the tolerance by the form's own measure (the sweeps'
+/// measure, on the whole problem, judges the answer).
+pub const DENSE_CONTACTS_NEWTON_STEPS: usize = 30;
+/// See [`DENSE_CONTACTS_NEWTON_STEPS`].
+pub const DENSE_CONTACTS_TIGHTER: f64 = 1e-2;
+/// Newton on few contacts is first tried only with this many sweeps' time left (later
+/// attempts at the same number of contacts, with what the last one took). On a 20-link
+/// chain striking a box (8 contacts, 60 joint rows solved together) forming the dense form
+/// and its 5 Newton steps cost about 1e6 instructions, 25 to 30 sweeps.
+pub const DENSE_CONTACTS_FIRST_SWEEPS: f64 = 30.0;
+
 /// Once no handover can follow (too little time left), a Gauss-Seidel checkpoint is
 /// measured only when the measure costs at most this share of the sweeps since the last
 /// one. Such a measure only keeps the best iterate and sees the tolerance met, and it costs

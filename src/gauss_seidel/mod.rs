@@ -10,6 +10,7 @@
 //! longer pays.
 
 mod contact;
+mod dense_contacts;
 mod joint_block;
 mod movement;
 mod rows;
@@ -19,11 +20,13 @@ use crate::linsys::BlockDiagonal;
 use crate::measure::{global_error_with, MeasureWork};
 use crate::problem::GlobalProblem;
 use crate::tuning::{
+    DENSE_CONTACTS_FIRST_SWEEPS, DENSE_CONTACTS_NEWTON_STEPS, DENSE_CONTACTS_TIGHTER, DENSE_MAX,
     GAUSS_SEIDEL_FIRST_MEASURE, GAUSS_SEIDEL_JUDGED_LATE, GAUSS_SEIDEL_MATRIX_FREE_SWEEPS,
     GAUSS_SEIDEL_MEASURE_SHARE, GAUSS_SEIDEL_PATIENCE,
 };
 use crate::types::{Error, Status};
 use contact::ContactBlock;
+use dense_contacts::{DenseContacts, Swept};
 use joint_block::JointBlock;
 use movement::{Movement, Stillness};
 use rows::RowGroups;
@@ -48,6 +51,9 @@ pub(crate) struct GaussSeidel {
     /// when the block's factor does not hold).
     joint_block: JointBlock,
     single_rows: Vec<usize>,
+    /// Newton on the contacts' dense form when they are few, by their number (each built
+    /// on first use).
+    dense: Vec<Option<Box<DenseContacts>>>,
     /// The current iterate (`v = M^-1 (f + H r + G lambda)` up to the sweeps' round-off).
     r: Vec<f64>,
     lambda: Vec<f64>,
@@ -66,7 +72,7 @@ pub(crate) struct GaussSeidel {
 }
 
 /// How a run of sweeps ended.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub(crate) struct SweepOutcome {
     /// `Some` when the run ended the solve (solved, or out of time or sweeps); `None` when
     /// it hands over.
@@ -74,6 +80,9 @@ pub(crate) struct SweepOutcome {
     pub sweeps: usize,
     /// The best error measured (that of [`GaussSeidel::best`]).
     pub error: f64,
+    /// Newton's steps and factorizations on the contacts' dense form (`dense_contacts.rs`).
+    pub newton_steps: usize,
+    pub newton_factorizations: usize,
 }
 
 impl GaussSeidel {
@@ -191,9 +200,8 @@ impl GaussSeidel {
         // The errors measured at the last two doublings' checkpoints, the latest first.
         let mut doublings = [first, f64::INFINITY];
         let mut outcome = SweepOutcome {
-            status: None,
-            sweeps: 0,
             error: first,
+            ..SweepOutcome::default()
         };
         let (mut sweep_time, mut measure_time) = (0.0, t0.elapsed().as_secs_f64());
         let (mut checkpoint, mut measured) = (GAUSS_SEIDEL_FIRST_MEASURE, true);
@@ -223,22 +231,21 @@ impl GaussSeidel {
                 // A sweep that stood still (as engines stop their own) may have met the
                 // tolerance: the measure says.
                 measured = doubling || stillness.asks(moved);
-                let mut error = f64::NAN;
+                let mut error = match measured {
+                    true => self.timed_measure(p, work, &mut measure_time),
+                    false => f64::NAN,
+                };
+                if self.solves_contacts_now(outcome.sweeps, error, limits) {
+                    let tried =
+                        self.solve_contacts_at_once(p, limits, sweep_time, &mut outcome, work);
+                    (error, measured) = tried.map_or((error, measured), |e| (e, true));
+                }
                 if measured {
-                    let at = Instant::now();
-                    error = self.measure(p, work);
-                    measure_time = at.elapsed().as_secs_f64();
                     last_measure = outcome.sweeps;
                 }
                 // Only a doubling's measure judges the sweeps' rate.
                 if doubling {
-                    let progress = Progress {
-                        sweeps: outcome.sweeps,
-                        seconds: t0.elapsed().as_secs_f64(),
-                        halved_from: doublings[0],
-                        quartered_from: doublings[1],
-                        error,
-                    };
+                    let progress = Progress::after(outcome.sweeps, t0, doublings, error);
                     if progress.sweeps >= limits.yields.first_judged()
                         && hand_over(progress, limits)
                     {
@@ -311,8 +318,8 @@ impl GaussSeidel {
         self.best_lambda.fill(0.0);
         Some(SweepOutcome {
             status: Some(Status::Solved),
-            sweeps: 0,
             error,
+            ..SweepOutcome::default()
         })
     }
 
@@ -370,6 +377,19 @@ impl GaussSeidel {
         moved
     }
 
+    /// [`GaussSeidel::measure`], its time into `seconds`.
+    fn timed_measure(
+        &mut self,
+        p: &GlobalProblem,
+        work: &mut MeasureWork,
+        seconds: &mut f64,
+    ) -> f64 {
+        let at = Instant::now();
+        let error = self.measure(p, work);
+        *seconds = at.elapsed().as_secs_f64();
+        error
+    }
+
     /// Recomputes `v = M^-1 (f + H r + G lambda)` exactly (the sweeps' increments drift),
     /// measures the iterate and keeps it when it is the best so far; returns its error.
     fn measure(&mut self, p: &GlobalProblem, work: &mut MeasureWork) -> f64 {
@@ -388,6 +408,112 @@ impl GaussSeidel {
             self.best_v.copy_from_slice(&self.v);
         }
         error
+    }
+
+    /// Whether Newton solves the contacts at once after `sweeps` sweeps that measured
+    /// `error` (NaN when not measured): after the first sweeps, still unsolved, when
+    /// `limits` allow it, the contacts are few enough for their dense form ([`DENSE_MAX`]
+    /// rows, `dense_contacts.rs`) and the joints, if any, all solved together (their
+    /// elimination is then exact).
+    fn solves_contacts_now(&self, sweeps: usize, error: f64, limits: SweepLimits) -> bool {
+        let m = self.r.len();
+        sweeps == GAUSS_SEIDEL_FIRST_MEASURE
+            && measured_status(error, limits) != Some(Status::Solved)
+            && limits.newton
+            && m > 0
+            && m <= DENSE_MAX
+            && self.single_rows.is_empty()
+    }
+
+    /// Solves the contacts' dense form by Newton from the current impulses, until a share
+    /// of `limits`' tolerance by its own measure or their deadline, then completes its
+    /// answer with the joints' multipliers and the velocities and measures it. The sweeps
+    /// go on from the better of it and the best iterate so far, whose error this returns.
+    /// `None`, nothing tried, when the time left is shorter than Newton is expected to
+    /// take: what its last attempt at this number of contacts took, or before one
+    /// [`DENSE_CONTACTS_FIRST_SWEEPS`] sweeps of `sweep_time`.
+    fn solve_contacts_at_once(
+        &mut self,
+        p: &GlobalProblem,
+        limits: SweepLimits,
+        sweep_time: f64,
+        outcome: &mut SweepOutcome,
+        work: &mut MeasureWork,
+    ) -> Option<f64> {
+        let nc = p.n_contacts();
+        if self.dense.len() <= nc {
+            self.dense.resize_with(nc + 1, || None);
+        }
+        let expected = match &self.dense[nc] {
+            Some(d) => d.seconds,
+            None => DENSE_CONTACTS_FIRST_SWEEPS * sweep_time,
+        };
+        if limits.deadline.map_or(f64::INFINITY, seconds_until) < expected {
+            return None;
+        }
+        // Sizes within DENSE_MAX always build: no Newton is no loss.
+        let mut dense = match self.dense[nc].take() {
+            Some(d) => d,
+            None => Box::new(DenseContacts::new(nc).ok()?),
+        };
+        let at = Instant::now();
+        let joints = match (&self.joints, &p.joints) {
+            (Some(rows), Some(j)) if self.joint_block.ready() => {
+                Some((rows, j, &mut self.joint_block))
+            }
+            _ => None,
+        };
+        let swept = Swept {
+            mass: &self.mass,
+            contacts: &self.contacts,
+            joints,
+        };
+        let bounds = (
+            limits.tolerance * DENSE_CONTACTS_TIGHTER,
+            DENSE_CONTACTS_NEWTON_STEPS,
+            limits.deadline,
+        );
+        let solved = dense.solve(swept, p, &mut self.r, bounds);
+        // Cut short by the deadline, it would have taken longer.
+        let cut = solved
+            .as_ref()
+            .is_ok_and(|out| out.status_when_final(false, limits.deadline) == Status::TimeLimit);
+        dense.seconds = at.elapsed().as_secs_f64() * if cut { 2.0 } else { 1.0 };
+        self.dense[nc] = Some(dense);
+        // An error is a W out of range: the sweeps go on without Newton.
+        let error = match solved {
+            Ok(newton) => {
+                outcome.newton_steps += newton.iterations;
+                outcome.newton_factorizations += newton.factorizations;
+                self.complete(p);
+                self.measure(p, work)
+            }
+            Err(_) => f64::INFINITY,
+        };
+        if error > self.best_error {
+            // Worse than an earlier iterate: the sweeps go on from that one.
+            self.r.copy_from_slice(&self.best_r);
+            self.lambda.copy_from_slice(&self.best_lambda);
+            self.v.copy_from_slice(&self.best_v);
+        }
+        Some(error.min(self.best_error))
+    }
+
+    /// The joints' multipliers and the velocities of the impulses `self.r`: `v = M^-1 (f +
+    /// H r)`, then the joint rows solved together from zero multipliers.
+    fn complete(&mut self, p: &GlobalProblem) {
+        self.forces.copy_from_slice(&p.f);
+        p.h.mul_vec(1.0, &self.r, 1.0, &mut self.forces);
+        self.mass
+            .mul_inverse(0..self.mass.block_count(), &self.forces, &mut self.v);
+        self.lambda.fill(0.0);
+        if let (Some(rows), Some(j)) = (&self.joints, &p.joints) {
+            if self.joint_block.ready() {
+                let mut moved = Movement::default();
+                self.joint_block
+                    .solve(j, rows, &mut self.lambda, &mut self.v, &mut moved);
+            }
+        }
     }
 
     /// Whether the sweeps solve the joint rows together ([`JointBlock`]).
@@ -412,6 +538,20 @@ struct Progress {
     /// The error after a quarter of the sweeps (infinite when not measured).
     quartered_from: f64,
     error: f64,
+}
+
+impl Progress {
+    /// At a doubling's checkpoint: `error` after `sweeps` sweeps since `t0`, the errors of
+    /// the last two checkpoints before it in `doublings` (the latest first).
+    fn after(sweeps: usize, t0: Instant, doublings: [f64; 2], error: f64) -> Self {
+        Self {
+            sweeps,
+            seconds: t0.elapsed().as_secs_f64(),
+            halved_from: doublings[0],
+            quartered_from: doublings[1],
+            error,
+        }
+    }
 }
 
 /// Whether a checkpoint's measure is worth its time under `limits`, `per_sweep` being the
@@ -500,6 +640,9 @@ pub(crate) struct SweepLimits<'a> {
     pub handover_sweeps: f64,
     /// When the sweeps give way to the coupled solve.
     pub yields: Yield,
+    /// Whether Newton may solve few contacts at once (off when the settings turn Newton
+    /// off).
+    pub newton: bool,
 }
 
 /// When the sweeps give way to the coupled solve (ADMM and Newton), judged at each
@@ -552,6 +695,7 @@ mod tests {
                 interrupt: None,
                 handover_sweeps: bar,
                 yields: Yield::Patience,
+                newton: true,
             };
             assert_eq!(hand_over(at, limits), hands_over, "bar {bar}");
         }
@@ -569,6 +713,7 @@ mod tests {
             interrupt: None,
             handover_sweeps: GAUSS_SEIDEL_HANDOVER_SWEEPS,
             yields: Yield::Patience,
+            newton: true,
         };
         let plenty = 2.0 * GAUSS_SEIDEL_HANDOVER_SWEEPS * sweep;
         assert!(worth_measuring(limits, sweep, plenty, measure, 4.0 * sweep));
@@ -623,6 +768,7 @@ mod tests {
             // No handover can follow: checkpoints are measured only when cheap enough.
             handover_sweeps: f64::INFINITY,
             yields: Yield::Patience,
+            newton: true,
         };
         let mut work = MeasureWork::global(&p);
         let out = sweeps.run(&p, None, None, limits, &mut work);

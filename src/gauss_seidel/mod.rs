@@ -490,8 +490,8 @@ impl GaussSeidel {
             }
             Err(_) => f64::INFINITY,
         };
-        if error > self.best_error {
-            // Worse than an earlier iterate: the sweeps go on from that one.
+        if error.is_nan() || error > self.best_error {
+            // Worse than an earlier iterate (or not a number): the sweeps go on from that one.
             self.r.copy_from_slice(&self.best_r);
             self.lambda.copy_from_slice(&self.best_lambda);
             self.v.copy_from_slice(&self.best_v);

@@ -18,7 +18,7 @@ mod rows;
 use crate::cone::{get3, set3};
 use crate::linsys::BlockDiagonal;
 use crate::measure::{global_error_with, MeasureWork};
-use crate::problem::GlobalProblem;
+use crate::problem::{GlobalProblem, Joints};
 use crate::tuning::{
     DENSE_CONTACTS_FIRST_SWEEPS, DENSE_CONTACTS_NEWTON_STEPS, DENSE_CONTACTS_TIGHTER, DENSE_MAX,
     GAUSS_SEIDEL_FIRST_MEASURE, GAUSS_SEIDEL_JUDGED_LATE, GAUSS_SEIDEL_MATRIX_FREE_SWEEPS,
@@ -51,6 +51,8 @@ pub(crate) struct GaussSeidel {
     /// when the block's factor does not hold).
     joint_block: JointBlock,
     single_rows: Vec<usize>,
+    /// The joints' pattern the rows' groups and block were fitted to.
+    fitted_joints: JointPattern,
     /// Newton on the contacts' dense form when they are few, by their number (each built
     /// on first use).
     dense: Vec<Option<Box<DenseContacts>>>,
@@ -69,6 +71,46 @@ pub(crate) struct GaussSeidel {
     /// velocities in a group's reach, while its values are taken.
     forces: Vec<f64>,
     position: Vec<usize>,
+}
+
+/// The pattern of a problem's joints: G's column pointers and row indices, and which rows
+/// are bounded (empty without joints).
+#[derive(Default)]
+struct JointPattern {
+    colptr: Vec<usize>,
+    rowind: Vec<usize>,
+    bounded: Vec<bool>,
+    /// Whether any joints were taken (a problem without joints fits no pattern).
+    joints: bool,
+}
+
+impl JointPattern {
+    /// Whether `joints` have this pattern.
+    fn fits(&self, joints: Option<&Joints>) -> bool {
+        joints.is_some_and(|j| {
+            self.joints
+                && j.g.colptr() == self.colptr
+                && j.g.rowind() == self.rowind
+                && self
+                    .bounded
+                    .iter()
+                    .enumerate()
+                    .all(|(k, &b)| j.is_bounded(k) == b)
+        })
+    }
+
+    /// Becomes the pattern of `joints`.
+    fn take(&mut self, joints: Option<&Joints>) {
+        self.joints = joints.is_some();
+        self.colptr.clear();
+        self.rowind.clear();
+        self.bounded.clear();
+        if let Some(j) = joints {
+            self.colptr.extend_from_slice(j.g.colptr());
+            self.rowind.extend_from_slice(j.g.rowind());
+            self.bounded.extend((0..j.b.len()).map(|k| j.is_bounded(k)));
+        }
+    }
 }
 
 /// How a run of sweeps ended.
@@ -107,13 +149,19 @@ impl GaussSeidel {
             return false;
         }
         self.contacts.refit(&p.h, &mass, true);
-        match (&mut self.joints, &p.joints) {
-            (Some(rows), Some(j)) => rows.refit(&j.g, &mass, false),
-            (rows, j) => *rows = j.as_ref().map(|j| RowGroups::new(&j.g, &mass, false)),
-        }
-        match (&self.joints, &p.joints) {
-            (Some(rows), Some(j)) => self.joint_block.refit(j, rows, &mass),
-            _ => self.joint_block = JointBlock::default(),
+        // A rebuild for new contacts (an engine's step) keeps the joints' structure, its
+        // rows' order included, when their pattern and M's blocks are those it was fitted to.
+        let kept = self.mass.same_blocks(&mass) && self.fitted_joints.fits(p.joints.as_ref());
+        if !kept {
+            match (&mut self.joints, &p.joints) {
+                (Some(rows), Some(j)) => rows.refit(&j.g, &mass, false),
+                (rows, j) => *rows = j.as_ref().map(|j| RowGroups::new(&j.g, &mass, false)),
+            }
+            match (&self.joints, &p.joints) {
+                (Some(rows), Some(j)) => self.joint_block.refit(j, rows, &mass),
+                _ => self.joint_block = JointBlock::default(),
+            }
+            self.fitted_joints.take(p.joints.as_ref());
         }
         let (n, m, np) = (p.n(), p.w.len(), p.n_joints());
         self.blocks.clear();

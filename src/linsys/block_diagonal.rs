@@ -154,6 +154,11 @@ impl BlockDiagonal {
         self.scratch.reserve(largest);
     }
 
+    /// Whether `other` has the same blocks: the same unknowns in each, in the same order.
+    pub fn same_blocks(&self, other: &BlockDiagonal) -> bool {
+        self.start == other.start && self.index == other.index
+    }
+
     /// Number of blocks.
     pub fn block_count(&self) -> usize {
         self.start.len() - 1

@@ -253,20 +253,7 @@ impl JointBlock {
             *yi = groups.apply(k, x)[0];
         }
         let from = y.iter().position(|&yi| yi != 0.0).unwrap_or(y.len());
-        for (i, &fi) in self.first.iter().enumerate().skip(from) {
-            let (row, diagonal) = (
-                &self.factor[self.start[i]..self.start[i + 1] - 1],
-                self.factor[self.start[i + 1] - 1],
-            );
-            let (before, at) = y.split_at_mut(i);
-            let skip = from.saturating_sub(fi);
-            let dot: f64 = row[skip..]
-                .iter()
-                .zip(&before[fi + skip..])
-                .map(|(a, b)| a * b)
-                .sum();
-            at[0] = (at[0] - dot) / diagonal;
-        }
+        envelope_forward(&self.factor, &self.first, &self.start, y, from);
         from
     }
 }
@@ -304,16 +291,27 @@ fn envelope_cholesky(s: &mut [f64], first: &[usize], start: &[usize]) -> bool {
     true
 }
 
-/// Solves `L L^T x = y` in place with the factor of [`envelope_cholesky`].
-fn envelope_solve(l: &[f64], first: &[usize], start: &[usize], y: &mut [f64]) {
+/// Solves `L x = y` in place with the factor of [`envelope_cholesky`], `y` zero before
+/// row `from` (so the solve starts there).
+fn envelope_forward(l: &[f64], first: &[usize], start: &[usize], y: &mut [f64], from: usize) {
     // Row i's entries left of the diagonal against `y[first[i]..i]`, as slices (indexing
-    // each entry cost 12 instructions a multiply-add).
-    for (i, &fi) in first.iter().enumerate() {
+    // each entry cost 12 instructions a multiply-add); those before `from` meet zeros.
+    for (i, &fi) in first.iter().enumerate().skip(from) {
         let (row, diagonal) = (&l[start[i]..start[i + 1] - 1], l[start[i + 1] - 1]);
         let (before, at) = y.split_at_mut(i);
-        let dot: f64 = row.iter().zip(&before[fi..]).map(|(a, b)| a * b).sum();
+        let skip = from.saturating_sub(fi);
+        let dot: f64 = row[skip..]
+            .iter()
+            .zip(&before[fi + skip..])
+            .map(|(a, b)| a * b)
+            .sum();
         at[0] = (at[0] - dot) / diagonal;
     }
+}
+
+/// Solves `L L^T x = y` in place with the factor of [`envelope_cholesky`].
+fn envelope_solve(l: &[f64], first: &[usize], start: &[usize], y: &mut [f64]) {
+    envelope_forward(l, first, start, y, 0);
     for (i, &fi) in first.iter().enumerate().rev() {
         let (row, diagonal) = (&l[start[i]..start[i + 1] - 1], l[start[i + 1] - 1]);
         let (before, at) = y.split_at_mut(i);
